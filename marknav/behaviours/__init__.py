@@ -1,0 +1,1 @@
+"""py_trees behaviours: perception, approach, bypass, search, safety guard."""

@@ -1,0 +1,76 @@
+"""The ``marknav`` command line.
+
+Each sub-command lives in its own module, next to the capability it exposes, and provides
+``register(subparsers)``; :data:`COMMANDS` lists the modules in the order ``--help`` shows them.
+A command is listed here only once its capability exists.
+
+Exit codes (every command): 0 success; 1 the mission or evaluation failed or was aborted;
+2 bad input (usage, invalid file, unreadable image or port); 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+from collections.abc import Sequence
+
+from marknav import __version__
+from marknav.errors import InputError, MarknavError
+
+log = logging.getLogger(__name__)
+
+#: Modules that each register one or more sub-commands.
+COMMANDS: tuple[str, ...] = (
+    "marknav.vision.cmd_calibrate",
+)
+
+EXIT_OK = 0
+EXIT_FAILED = 1
+EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="marknav",
+        description="Drive an iRobot Create past coloured circular marks with one camera.",
+    )
+    parser.add_argument("--version", action="version", version=f"marknav {__version__}")
+    parser.add_argument(
+        "-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)"
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name in COMMANDS:
+        importlib.import_module(name).register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(
+        level=(logging.WARNING, logging.INFO, logging.DEBUG)[min(args.verbose, 2)],
+        format="%(levelname)s %(name)s: %(message)s",
+    )
+    if args.command is None:
+        parser.print_help()
+        return EXIT_BAD_INPUT
+    try:
+        return int(args.func(args))
+    except InputError as exc:
+        print(f"marknav {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except MarknavError as exc:
+        print(f"marknav {args.command}: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        print(f"marknav {args.command}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except BrokenPipeError:
+        return EXIT_OK
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Planning: Bézier bypass geometry, path tracking, differential-drive kinematics (pure functions)."""

@@ -1,0 +1,1 @@
+"""Simulator: world, camera renderer and the byte-level simulated Create."""

@@ -1,0 +1,1 @@
+"""Vision: mark detection, frame sources, range/offset estimation and calibration."""

@@ -1,0 +1,212 @@
+"""YAML files in, line-numbered errors out.
+
+Missions and worlds are YAML validated by pydantic models. This module loads YAML with PyYAML's
+*safe* loader only (so ``!!python/...`` tags are rejected), remembers where every key and value
+sits in the file, rejects duplicate keys, and turns pydantic's error locations back into
+``FILE:LINE:COLUMN: field.path: message`` — with a did-you-mean for unknown keys.
+"""
+
+from __future__ import annotations
+
+import difflib
+import types
+import typing
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TypeVar, Union
+
+import yaml
+from pydantic import BaseModel, ValidationError
+
+from marknav.errors import InputError, InputErrors
+
+Loc = tuple[Union[str, int], ...]
+M = TypeVar("M", bound=BaseModel)
+
+
+@dataclass(frozen=True)
+class Position:
+    line: int  # 1-based
+    column: int  # 1-based
+
+
+@dataclass
+class YamlDocument:
+    """Parsed YAML data plus the position of every node, keyed by its path."""
+
+    path: str
+    data: Any
+    positions: dict[Loc, Position]
+    key_positions: dict[Loc, Position]
+
+    def position(self, loc: Loc, *, at_key: bool = False) -> Position | None:
+        """Position of the node at ``loc``, or of its deepest ancestor that exists in the file.
+
+        ``at_key`` points at the key instead of its value (for unknown keys).
+        """
+        for n in range(len(loc), -1, -1):
+            prefix = tuple(loc[:n])
+            if at_key and n == len(loc) and prefix in self.key_positions:
+                return self.key_positions[prefix]
+            if prefix in self.positions:
+                return self.positions[prefix]
+        return None
+
+
+def _mark(node: yaml.Node) -> Position:
+    return Position(node.start_mark.line + 1, node.start_mark.column + 1)
+
+
+def _walk(
+    node: yaml.Node,
+    loc: Loc,
+    positions: dict[Loc, Position],
+    key_positions: dict[Loc, Position],
+    path: str,
+) -> None:
+    positions[loc] = _mark(node)
+    if isinstance(node, yaml.MappingNode):
+        seen: dict[Any, Position] = {}
+        for key_node, value_node in node.value:
+            key = key_node.value if isinstance(key_node, yaml.ScalarNode) else str(key_node.value)
+            if key in seen:
+                p = _mark(key_node)
+                raise InputError(
+                    f"duplicate key {key!r} (first at line {seen[key].line})",
+                    file=path, line=p.line, column=p.column, field=_fmt((*loc, key)),
+                )
+            seen[key] = _mark(key_node)
+            key_positions[(*loc, key)] = _mark(key_node)
+            _walk(value_node, (*loc, key), positions, key_positions, path)
+    elif isinstance(node, yaml.SequenceNode):
+        for i, item in enumerate(node.value):
+            _walk(item, (*loc, i), positions, key_positions, path)
+
+
+def load_yaml_text(text: str, path: str = "<string>") -> YamlDocument:
+    """Parse ``text`` with the safe loader; raise :class:`InputError` with the line on failure."""
+    loader = yaml.SafeLoader(text)
+    try:
+        node = loader.get_single_node()
+        if node is None:
+            raise InputError("the file is empty", file=path, line=1)
+        positions: dict[Loc, Position] = {}
+        key_positions: dict[Loc, Position] = {}
+        _walk(node, (), positions, key_positions, path)
+        data = loader.construct_document(node)
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        problem = exc.problem or "invalid YAML"
+        if exc.context and "constructor" in type(exc).__name__.lower():
+            problem = f"{exc.context}; {problem}"
+        raise InputError(
+            f"{problem} (only plain YAML is accepted: no Python tags)"
+            if "tag" in problem else problem,
+            file=path,
+            line=mark.line + 1 if mark else None,
+            column=mark.column + 1 if mark else None,
+        ) from None
+    except yaml.YAMLError as exc:
+        raise InputError(f"invalid YAML: {exc}", file=path) from None
+    finally:
+        loader.dispose()
+    return YamlDocument(path=path, data=data, positions=positions, key_positions=key_positions)
+
+
+def load_yaml_file(path: str | Path) -> YamlDocument:
+    """Read and parse a YAML file; a missing or unreadable file is an :class:`InputError`."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError("no such file", file=str(path)) from None
+    except IsADirectoryError:
+        raise InputError("is a directory, expected a YAML file", file=str(path)) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read: {exc}", file=str(path)) from None
+    return load_yaml_text(text, str(path))
+
+
+def _fmt(loc: Loc) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += ("." if out else "") + str(part)
+    return out
+
+
+def _model_in(annotation: Any) -> type[BaseModel] | None:
+    """The pydantic model inside an annotation like ``Foo``, ``Foo | None``, ``list[Foo]``."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    origin = typing.get_origin(annotation)
+    if origin is not None or isinstance(annotation, types.UnionType):
+        for arg in typing.get_args(annotation):
+            found = _model_in(arg)
+            if found is not None:
+                return found
+    return None
+
+
+def _fields_at(model: type[BaseModel], loc: Loc) -> list[str]:
+    """Field names of the model that owns the last element of ``loc``."""
+    current: type[BaseModel] | None = model
+    for part in loc[:-1]:
+        if current is None:
+            return []
+        if isinstance(part, int):
+            continue
+        field = current.model_fields.get(str(part))
+        if field is None:
+            # A dict of models (e.g. colours: {red: {...}}): the key is a user name.
+            continue
+        current = _model_in(field.annotation)
+    if current is None:
+        return []
+    names: list[str] = []
+    for name, info in current.model_fields.items():
+        names.append(info.alias or name)
+    return names
+
+
+def validation_errors(exc: ValidationError, doc: YamlDocument, model: type[BaseModel]) -> InputErrors:
+    """Map a pydantic :class:`ValidationError` back to file positions, one error per problem."""
+    errors: list[InputError] = []
+    for err in exc.errors(include_url=False):
+        loc: Loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and "[" in p and "]" in p))
+        msg = err["msg"]
+        if err["type"] == "extra_forbidden" and loc and isinstance(loc[-1], str):
+            known = _fields_at(model, loc)
+            close = difflib.get_close_matches(str(loc[-1]), known, n=1)
+            msg = f"unknown key {loc[-1]!r}" + (f"; did you mean {close[0]!r}?" if close else "")
+            if known and not close:
+                msg += f" (allowed: {', '.join(sorted(known))})"
+        elif msg.startswith("Value error, "):
+            msg = msg[len("Value error, "):]
+        pos = doc.position(loc, at_key=err["type"] == "extra_forbidden")
+        errors.append(
+            InputError(
+                msg,
+                file=doc.path,
+                line=pos.line if pos else None,
+                column=pos.column if pos else None,
+                field=_fmt(loc) or None,
+            )
+        )
+    errors.sort(key=lambda e: (e.line or 0, e.column or 0))
+    return InputErrors(errors)
+
+
+def parse_model(doc: YamlDocument, model: type[M]) -> M:
+    """Validate a parsed YAML document against ``model``; raise line-numbered errors."""
+    try:
+        return model.model_validate(doc.data)
+    except ValidationError as exc:
+        raise validation_errors(exc, doc, model) from None
+
+
+def load_model(path: str | Path, model: type[M]) -> M:
+    """Load a YAML file and validate it against ``model`` in one step."""
+    return parse_model(load_yaml_file(path), model)
