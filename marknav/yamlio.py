@@ -13,14 +13,14 @@ import types
 import typing
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TypeVar, Union
+from typing import Any, TypeVar
 
 import yaml
 from pydantic import BaseModel, ValidationError
 
 from marknav.errors import InputError, InputErrors
 
-Loc = tuple[Union[str, int], ...]
+Loc = tuple[str | int, ...]
 M = TypeVar("M", bound=BaseModel)
 
 
@@ -69,15 +69,16 @@ def _walk(
         seen: dict[Any, Position] = {}
         for key_node, value_node in node.value:
             key = key_node.value if isinstance(key_node, yaml.ScalarNode) else str(key_node.value)
+            child: Loc = (*loc, key)
             if key in seen:
                 p = _mark(key_node)
                 raise InputError(
                     f"duplicate key {key!r} (first at line {seen[key].line})",
-                    file=path, line=p.line, column=p.column, field=_fmt((*loc, key)),
+                    file=path, line=p.line, column=p.column, field=_fmt(child),
                 )
             seen[key] = _mark(key_node)
-            key_positions[(*loc, key)] = _mark(key_node)
-            _walk(value_node, (*loc, key), positions, key_positions, path)
+            key_positions[child] = _mark(key_node)
+            _walk(value_node, child, positions, key_positions, path)
     elif isinstance(node, yaml.SequenceNode):
         for i, item in enumerate(node.value):
             _walk(item, (*loc, i), positions, key_positions, path)
@@ -171,11 +172,16 @@ def _fields_at(model: type[BaseModel], loc: Loc) -> list[str]:
     return names
 
 
-def validation_errors(exc: ValidationError, doc: YamlDocument, model: type[BaseModel]) -> InputErrors:
+def validation_errors(
+    exc: ValidationError, doc: YamlDocument, model: type[BaseModel]
+) -> InputErrors:
     """Map a pydantic :class:`ValidationError` back to file positions, one error per problem."""
     errors: list[InputError] = []
     for err in exc.errors(include_url=False):
-        loc: Loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and "[" in p and "]" in p))
+        # pydantic adds tagged-union/function tags like "function-after[...]" to locations.
+        loc: Loc = tuple(
+            p for p in err["loc"] if not (isinstance(p, str) and "[" in p and "]" in p)
+        )
         msg = err["msg"]
         if err["type"] == "extra_forbidden" and loc and isinstance(loc[-1], str):
             known = _fields_at(model, loc)
