@@ -1,1 +1,80 @@
-"""Planning: Bézier bypass geometry, path tracking, differential-drive kinematics (pure functions)."""
+"""Planning: Bézier bypass geometry, path tracking, differential-drive kinematics.
+
+Pure functions and small value types only: no I/O, no clock, no globals (paper §4.6).
+"""
+
+from marknav.planning.bezier import (
+    BypassPlan,
+    ClosestPoint,
+    PlanningError,
+    QuadraticBezier,
+    Side,
+    Vec2,
+    closest_point,
+    curves_length,
+    default_control_distance,
+    min_distance,
+    passed,
+    plan_bypass,
+    sample_curves,
+    side_sign,
+)
+from marknav.planning.kinematics import (
+    ArcStep,
+    Pose,
+    WheelSpeeds,
+    arc_curvature,
+    arc_step,
+    body_velocity,
+    integrate_pose,
+    paper_wheel_speeds,
+    scale_to_limit,
+    to_robot_frame,
+    to_world_frame,
+    wheel_speeds_for_curvature,
+    wheel_speeds_to_point,
+    wrap_angle,
+)
+from marknav.planning.tracking import (
+    PathLike,
+    PurePursuit,
+    open_loop_command,
+    open_loop_wheel_steps,
+    path_polyline,
+)
+
+__all__ = [
+    "ArcStep",
+    "BypassPlan",
+    "ClosestPoint",
+    "PathLike",
+    "PlanningError",
+    "Pose",
+    "PurePursuit",
+    "QuadraticBezier",
+    "Side",
+    "Vec2",
+    "WheelSpeeds",
+    "arc_curvature",
+    "arc_step",
+    "body_velocity",
+    "closest_point",
+    "curves_length",
+    "default_control_distance",
+    "integrate_pose",
+    "min_distance",
+    "open_loop_command",
+    "open_loop_wheel_steps",
+    "paper_wheel_speeds",
+    "passed",
+    "path_polyline",
+    "plan_bypass",
+    "sample_curves",
+    "scale_to_limit",
+    "side_sign",
+    "to_robot_frame",
+    "to_world_frame",
+    "wheel_speeds_for_curvature",
+    "wheel_speeds_to_point",
+    "wrap_angle",
+]
