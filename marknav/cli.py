@@ -23,7 +23,12 @@ log = logging.getLogger(__name__)
 
 #: Modules that each register one or more sub-commands.
 COMMANDS: tuple[str, ...] = (
+    "marknav.missions.cmd_validate",
     "marknav.vision.cmd_calibrate",
+    "marknav.sim.cmd_sim_robot",
+    "marknav.missions.cmd_schema",
+    "marknav.vision.cmd_serve_camera",
+    "marknav.drivers.cmd_serve_robot",
 )
 
 EXIT_OK = 0

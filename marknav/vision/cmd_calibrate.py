@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
-from marknav.vision.calibrate import PowerFit, fit_table, plot_fit
+from marknav.errors import InputError
+from marknav.vision.calibrate import PowerFit, fit_power_law, fit_table, plot_fit
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -18,7 +19,11 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
             "line to paste under camera: in a mission, the fit quality and the worst rows."
         ),
     )
-    p.add_argument("table", metavar="TABLE.csv", help="CSV with header radius_px,distance_mm")
+    p.add_argument("table", metavar="TABLE.csv", nargs="?",
+                   help="CSV with header radius_px,distance_mm")
+    p.add_argument("--sim", action="store_true",
+                   help="measure the table in the simulator instead (the paper's Table 1 "
+                        "procedure: a mark straight ahead, 2000 to 300 mm in 100 mm steps)")
     p.add_argument("--json", action="store_true", help="print the fit as JSON")
     p.add_argument("--plot", metavar="FILE.png", help="draw the data and the fitted law")
     p.set_defaults(func=run)
@@ -40,8 +45,18 @@ def print_fit(fit: PowerFit, *, as_json: bool, source: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    fit = fit_table(args.table)
+    if args.sim == (args.table is not None):
+        raise InputError("give either a TABLE.csv or --sim")
+    if args.sim:
+        from marknav.sim.calibration import sim_calibration_table
+
+        rows = sim_calibration_table()
+        fit = fit_power_law([r for r, _ in rows], [d for _, d in rows])
+        source = "the simulator"
+    else:
+        fit = fit_table(args.table)
+        source = args.table
     if args.plot:
-        plot_fit(fit, args.plot, title=f"Range calibration: {args.table}")
-    print_fit(fit, as_json=args.json, source=args.table)
+        plot_fit(fit, args.plot, title=f"Range calibration: {source}")
+    print_fit(fit, as_json=args.json, source=source)
     return 0

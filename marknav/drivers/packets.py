@@ -1,0 +1,596 @@
+"""Create Open Interface sensor packets as data: one table per robot model.
+
+Implements the "Sensor Packets" sections and the "Sensors Quick Reference" / "Group Packet Sizes
+and Contents" tables of the iRobot Create OI specification (Create 1, packets 0–42) and of the
+iRobot Create 2 OI specification (Roomba 600 based, packets 0–58 and groups 100, 101, 106, 107).
+
+Each single packet is a :class:`PacketSpec` ``(id, name, size, signed, decode)``: ``size`` data
+bytes, big-endian (high byte first), two's complement when ``signed``; ``decode`` turns the raw
+integer into its value (a ``bool``, an ``int``, an :class:`~enum.IntEnum` or a frozen dataclass for
+bit fields). Group packets are the concatenation of their members in id order.
+
+The models differ where the specifications differ:
+
+- packet 7 bit 4 is the caster wheel drop on Create 1 only;
+- packet 14: bits 3/4 are the right/left wheel on both, but bits 0–2 are low-side drivers 1, 0, 2
+  on Create 1 and side brush, (vacuum), main brush on Create 2;
+- packets 15–16 are two unused bytes on Create 1; on Create 2 15 is dirt detect;
+- packet 17 means "no IR byte" with 255 on Create 1 and 0 on Create 2;
+- packet 18: Play (bit 0) / Advance (bit 2) on Create 1, eight buttons on Create 2;
+- packets 32–33 are the cargo bay inputs on Create 1 and unused (3 bytes) on Create 2;
+- packets 43–58 and groups 100, 101, 106, 107 exist on Create 2 only.
+
+:class:`SensorState` merges the latest value of every packet received into one frozen record.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from enum import Enum, IntEnum
+from types import MappingProxyType
+from typing import Any
+
+__all__ = [
+    "BumpsAndWheelDrops",
+    "Buttons",
+    "CargoBayInputs",
+    "ChargingSources",
+    "ChargingState",
+    "LightBumper",
+    "Model",
+    "OIMode",
+    "Overcurrents",
+    "PacketSpec",
+    "SensorState",
+    "decode_id_data_pairs",
+    "decode_packet",
+    "encode_packet",
+    "group_table",
+    "is_packet_id",
+    "member_ids",
+    "packet_size",
+    "packet_table",
+    "state_updates",
+    "stream_ids_size",
+]
+
+
+class Model(str, Enum):
+    """The robot model: the OI differs between the Create 1 and the Create 2."""
+
+    CREATE1 = "create1"
+    CREATE2 = "create2"
+
+    @property
+    def default_baudrate(self) -> int:
+        """The OI's power-on baud rate: 57600 (Create 1) or 115200 (Create 2)."""
+        return 57600 if self is Model.CREATE1 else 115200
+
+    @property
+    def wheel_base_mm(self) -> float:
+        """Distance between the wheels: 258 mm (Create 1), 235 mm (Create 2)."""
+        return 258.0 if self is Model.CREATE1 else 235.0
+
+    @classmethod
+    def parse(cls, value: Model | str) -> Model:
+        """The model from a model or its name (``"create1"``/``"create2"``); else ValueError."""
+        if isinstance(value, Model):
+            return value
+        try:
+            return cls(str(value).lower())
+        except ValueError:
+            raise ValueError(
+                f"unknown robot model {value!r} (expected 'create1' or 'create2')"
+            ) from None
+
+
+class OIMode(IntEnum):
+    """OI mode (packet 35)."""
+
+    OFF = 0
+    PASSIVE = 1
+    SAFE = 2
+    FULL = 3
+
+
+class ChargingState(IntEnum):
+    """Charging state (packet 21)."""
+
+    NOT_CHARGING = 0
+    RECONDITIONING = 1
+    FULL_CHARGING = 2
+    TRICKLE = 3
+    WAITING = 4
+    FAULT = 5
+
+
+def _bit(raw: int, n: int) -> bool:
+    return bool(raw >> n & 1)
+
+
+@dataclass(frozen=True)
+class BumpsAndWheelDrops:
+    """Packet 7: bit0 bump right, bit1 bump left, bit2 drop right, bit3 drop left, bit4 caster
+    (Create 1 only; always False on Create 2)."""
+
+    bump_right: bool = False
+    bump_left: bool = False
+    wheel_drop_right: bool = False
+    wheel_drop_left: bool = False
+    caster_drop: bool = False
+
+    @classmethod
+    def from_raw(cls, raw: int, model: Model) -> BumpsAndWheelDrops:
+        return cls(_bit(raw, 0), _bit(raw, 1), _bit(raw, 2), _bit(raw, 3),
+                   model is Model.CREATE1 and _bit(raw, 4))
+
+    def to_raw(self) -> int:
+        return (self.bump_right | self.bump_left << 1 | self.wheel_drop_right << 2
+                | self.wheel_drop_left << 3 | self.caster_drop << 4)
+
+
+@dataclass(frozen=True)
+class Overcurrents:
+    """Packet 14. Both models: bit3 right wheel, bit4 left wheel. Create 1: bit0 low-side driver 1,
+    bit1 LD0, bit2 LD2. Create 2: bit0 side brush, bit1 (vacuum, reserved), bit2 main brush."""
+
+    left_wheel: bool = False
+    right_wheel: bool = False
+    main_brush: bool = False
+    side_brush: bool = False
+    low_side_driver_0: bool = False
+    low_side_driver_1: bool = False
+    low_side_driver_2: bool = False
+
+    @classmethod
+    def from_raw(cls, raw: int, model: Model) -> Overcurrents:
+        if model is Model.CREATE1:
+            return cls(left_wheel=_bit(raw, 4), right_wheel=_bit(raw, 3),
+                       low_side_driver_0=_bit(raw, 1), low_side_driver_1=_bit(raw, 0),
+                       low_side_driver_2=_bit(raw, 2))
+        return cls(left_wheel=_bit(raw, 4), right_wheel=_bit(raw, 3),
+                   main_brush=_bit(raw, 2), side_brush=_bit(raw, 0))
+
+    def to_raw(self, model: Model) -> int:
+        wheels = self.right_wheel << 3 | self.left_wheel << 4
+        if model is Model.CREATE1:
+            return (wheels | self.low_side_driver_1 | self.low_side_driver_0 << 1
+                    | self.low_side_driver_2 << 2)
+        return wheels | self.side_brush | self.main_brush << 2
+
+
+@dataclass(frozen=True)
+class Buttons:
+    """Packet 18. Create 1: bit0 Play, bit2 Advance. Create 2: bit0 Clean, 1 Spot, 2 Dock,
+    3 Minute, 4 Hour, 5 Day, 6 Schedule, 7 Clock. Buttons a model lacks are False."""
+
+    play: bool = False
+    advance: bool = False
+    clean: bool = False
+    spot: bool = False
+    dock: bool = False
+    minute: bool = False
+    hour: bool = False
+    day: bool = False
+    schedule: bool = False
+    clock: bool = False
+
+    @classmethod
+    def from_raw(cls, raw: int, model: Model) -> Buttons:
+        if model is Model.CREATE1:
+            return cls(play=_bit(raw, 0), advance=_bit(raw, 2))
+        return cls(clean=_bit(raw, 0), spot=_bit(raw, 1), dock=_bit(raw, 2), minute=_bit(raw, 3),
+                   hour=_bit(raw, 4), day=_bit(raw, 5), schedule=_bit(raw, 6), clock=_bit(raw, 7))
+
+
+@dataclass(frozen=True)
+class ChargingSources:
+    """Packet 34: bit0 internal charger, bit1 home base."""
+
+    internal_charger: bool = False
+    home_base: bool = False
+
+    @classmethod
+    def from_raw(cls, raw: int) -> ChargingSources:
+        return cls(_bit(raw, 0), _bit(raw, 1))
+
+
+@dataclass(frozen=True)
+class CargoBayInputs:
+    """Packet 32 (Create 1): digital inputs 0–3 (bits 0–3) and the active-low baud-rate-change
+    / device-detect pin (bit 4, True = high, the default)."""
+
+    digital_0: bool = False
+    digital_1: bool = False
+    digital_2: bool = False
+    digital_3: bool = False
+    baud_rate_change: bool = True
+
+    @classmethod
+    def from_raw(cls, raw: int) -> CargoBayInputs:
+        return cls(_bit(raw, 0), _bit(raw, 1), _bit(raw, 2), _bit(raw, 3), _bit(raw, 4))
+
+
+@dataclass(frozen=True)
+class LightBumper:
+    """Packet 45 (Create 2): bit0 left, 1 front left, 2 centre left, 3 centre right, 4 front
+    right, 5 right."""
+
+    left: bool = False
+    front_left: bool = False
+    center_left: bool = False
+    center_right: bool = False
+    front_right: bool = False
+    right: bool = False
+
+    @classmethod
+    def from_raw(cls, raw: int) -> LightBumper:
+        return cls(*(_bit(raw, n) for n in range(6)))
+
+    def to_raw(self) -> int:
+        bits = (self.left, self.front_left, self.center_left, self.center_right,
+                self.front_right, self.right)
+        return sum(int(b) << n for n, b in enumerate(bits))
+
+
+@dataclass(frozen=True)
+class PacketSpec:
+    """One single sensor packet: id, name, data size in bytes, signedness and decoder.
+
+    ``fields`` maps the decoded value to :class:`SensorState` attributes (empty for unused bytes).
+    """
+
+    id: int
+    name: str
+    size: int
+    signed: bool
+    decode: Callable[[int], Any] = int
+    fields: Callable[[Any], dict[str, Any]] = field(default=lambda _v: {})
+
+    def raw_from_bytes(self, data: bytes) -> int:
+        """The raw integer of ``data`` (big-endian, two's complement if signed)."""
+        if len(data) != self.size:
+            raise ValueError(f"packet {self.id} ({self.name}) has {self.size} data bytes, "
+                             f"got {len(data)}")
+        return int.from_bytes(data, "big", signed=self.signed)
+
+    def raw_to_bytes(self, raw: int) -> bytes:
+        """``raw`` encoded as the robot sends it, saturated to the packet's range."""
+        bits = 8 * self.size
+        if self.signed:
+            lo, hi = -(1 << (bits - 1)), (1 << (bits - 1)) - 1
+        else:
+            lo, hi = 0, (1 << bits) - 1
+        return max(lo, min(hi, int(raw))).to_bytes(self.size, "big", signed=self.signed)
+
+
+def _to(name: str) -> Callable[[Any], dict[str, Any]]:
+    return lambda value: {name: value}
+
+
+def _bool(raw: int) -> bool:
+    return bool(raw & 1)
+
+
+def _build_table(model: Model) -> dict[int, PacketSpec]:
+    c1 = model is Model.CREATE1
+    no_ir = 255 if c1 else 0
+
+    def ir(raw: int) -> int | None:
+        return None if raw == no_ir else raw
+
+    def bumps(v: BumpsAndWheelDrops) -> dict[str, Any]:
+        return dataclasses.asdict(v)
+
+    def overcurrents(v: Overcurrents) -> dict[str, Any]:
+        return {"overcurrents": v, "overcurrent_left_wheel": v.left_wheel,
+                "overcurrent_right_wheel": v.right_wheel}
+
+    specs = [
+        PacketSpec(7, "bumps and wheel drops", 1, False,
+                   lambda r: BumpsAndWheelDrops.from_raw(r, model), bumps),
+        PacketSpec(8, "wall", 1, False, _bool, _to("wall")),
+        PacketSpec(9, "cliff left", 1, False, _bool, _to("cliff_left")),
+        PacketSpec(10, "cliff front left", 1, False, _bool, _to("cliff_front_left")),
+        PacketSpec(11, "cliff front right", 1, False, _bool, _to("cliff_front_right")),
+        PacketSpec(12, "cliff right", 1, False, _bool, _to("cliff_right")),
+        PacketSpec(13, "virtual wall", 1, False, _bool, _to("virtual_wall")),
+        PacketSpec(14, "overcurrents", 1, False,
+                   lambda r: Overcurrents.from_raw(r, model), overcurrents),
+        (PacketSpec(15, "unused", 1, False) if c1
+         else PacketSpec(15, "dirt detect", 1, False, int, _to("dirt_detect"))),
+        PacketSpec(16, "unused", 1, False),
+        PacketSpec(17, "infrared character omni", 1, False, ir, _to("ir_omni")),
+        PacketSpec(18, "buttons", 1, False, lambda r: Buttons.from_raw(r, model), _to("buttons")),
+        PacketSpec(19, "distance", 2, True, int, _to("distance_mm")),
+        PacketSpec(20, "angle", 2, True, int, _to("angle_deg")),
+        PacketSpec(21, "charging state", 1, False, _charging_state, _to("charging_state")),
+        PacketSpec(22, "voltage", 2, False, int, _to("voltage_mv")),
+        PacketSpec(23, "current", 2, True, int, _to("current_ma")),
+        PacketSpec(24, "battery temperature", 1, True, int, _to("battery_temp_c")),
+        PacketSpec(25, "battery charge", 2, False, int, _to("charge_mah")),
+        PacketSpec(26, "battery capacity", 2, False, int, _to("capacity_mah")),
+        PacketSpec(27, "wall signal", 2, False, int, _to("wall_signal")),
+        PacketSpec(28, "cliff left signal", 2, False, int, _to("cliff_left_signal")),
+        PacketSpec(29, "cliff front left signal", 2, False, int, _to("cliff_front_left_signal")),
+        PacketSpec(30, "cliff front right signal", 2, False, int,
+                   _to("cliff_front_right_signal")),
+        PacketSpec(31, "cliff right signal", 2, False, int, _to("cliff_right_signal")),
+        (PacketSpec(32, "cargo bay digital inputs", 1, False, CargoBayInputs.from_raw,
+                    _to("cargo_bay_inputs")) if c1 else PacketSpec(32, "unused", 1, False)),
+        (PacketSpec(33, "cargo bay analog signal", 2, False, int, _to("cargo_bay_analog"))
+         if c1 else PacketSpec(33, "unused", 2, False)),
+        PacketSpec(34, "charging sources available", 1, False, ChargingSources.from_raw,
+                   _to("charging_sources")),
+        PacketSpec(35, "OI mode", 1, False, _oi_mode, _to("oi_mode")),
+        PacketSpec(36, "song number", 1, False, int, _to("song_number")),
+        PacketSpec(37, "song playing", 1, False, _bool, _to("song_playing")),
+        PacketSpec(38, "number of stream packets", 1, False, int, _to("stream_packet_count")),
+        PacketSpec(39, "requested velocity", 2, True, int, _to("requested_velocity")),
+        PacketSpec(40, "requested radius", 2, True, int, _to("requested_radius")),
+        PacketSpec(41, "requested right velocity", 2, True, int, _to("requested_right_velocity")),
+        PacketSpec(42, "requested left velocity", 2, True, int, _to("requested_left_velocity")),
+    ]
+    if not c1:
+        specs += [
+            PacketSpec(43, "left encoder counts", 2, True, int, _to("encoder_left")),
+            PacketSpec(44, "right encoder counts", 2, True, int, _to("encoder_right")),
+            PacketSpec(45, "light bumper", 1, False, int, _to("light_bumper")),
+            PacketSpec(46, "light bump left signal", 2, False, int,
+                       _to("light_bump_left_signal")),
+            PacketSpec(47, "light bump front left signal", 2, False, int,
+                       _to("light_bump_front_left_signal")),
+            PacketSpec(48, "light bump center left signal", 2, False, int,
+                       _to("light_bump_center_left_signal")),
+            PacketSpec(49, "light bump center right signal", 2, False, int,
+                       _to("light_bump_center_right_signal")),
+            PacketSpec(50, "light bump front right signal", 2, False, int,
+                       _to("light_bump_front_right_signal")),
+            PacketSpec(51, "light bump right signal", 2, False, int,
+                       _to("light_bump_right_signal")),
+            PacketSpec(52, "infrared character left", 1, False, ir, _to("ir_left")),
+            PacketSpec(53, "infrared character right", 1, False, ir, _to("ir_right")),
+            PacketSpec(54, "left motor current", 2, True, int, _to("left_motor_current_ma")),
+            PacketSpec(55, "right motor current", 2, True, int, _to("right_motor_current_ma")),
+            PacketSpec(56, "main brush motor current", 2, True, int,
+                       _to("main_brush_current_ma")),
+            PacketSpec(57, "side brush motor current", 2, True, int,
+                       _to("side_brush_current_ma")),
+            PacketSpec(58, "stasis", 1, False, int, _to("stasis")),
+        ]
+    return {s.id: s for s in specs}
+
+
+def _oi_mode(raw: int) -> OIMode:
+    try:
+        return OIMode(raw)
+    except ValueError:
+        raise ValueError(f"OI mode {raw} out of range 0-3") from None
+
+
+def _charging_state(raw: int) -> ChargingState | int:
+    try:
+        return ChargingState(raw)
+    except ValueError:
+        return raw
+
+
+def _range(a: int, b: int) -> tuple[int, ...]:
+    return tuple(range(a, b + 1))
+
+
+_GROUPS_COMMON: dict[int, tuple[int, ...]] = {
+    0: _range(7, 26),
+    1: _range(7, 16),
+    2: _range(17, 20),
+    3: _range(21, 26),
+    4: _range(27, 34),
+    5: _range(35, 42),
+    6: _range(7, 42),
+}
+_GROUPS_CREATE2: dict[int, tuple[int, ...]] = {
+    **_GROUPS_COMMON,
+    100: _range(7, 58),
+    101: _range(43, 58),
+    106: _range(46, 51),
+    107: _range(54, 58),
+}
+
+_TABLES = {m: MappingProxyType(_build_table(m)) for m in Model}
+_GROUPS = {Model.CREATE1: MappingProxyType(_GROUPS_COMMON),
+           Model.CREATE2: MappingProxyType(_GROUPS_CREATE2)}
+
+
+def packet_table(model: Model) -> Mapping[int, PacketSpec]:
+    """The single (non-group) packets of ``model`` by id."""
+    return _TABLES[model]
+
+
+def group_table(model: Model) -> Mapping[int, tuple[int, ...]]:
+    """The group packets of ``model``: group id → member packet ids, in the order sent."""
+    return _GROUPS[model]
+
+
+def is_packet_id(model: Model, packet_id: int) -> bool:
+    """True if ``packet_id`` is a single or group packet of ``model``."""
+    return packet_id in _TABLES[model] or packet_id in _GROUPS[model]
+
+
+def member_ids(model: Model, packet_id: int) -> tuple[int, ...]:
+    """The single packets a request for ``packet_id`` returns (itself, or a group's members)."""
+    if packet_id in _GROUPS[model]:
+        return _GROUPS[model][packet_id]
+    if packet_id in _TABLES[model]:
+        return (packet_id,)
+    raise ValueError(f"packet id {packet_id} does not exist on the {model.value}")
+
+
+def packet_size(model: Model, packet_id: int) -> int:
+    """Number of data bytes the robot sends for ``packet_id`` (a group's is the sum)."""
+    table = _TABLES[model]
+    return sum(table[i].size for i in member_ids(model, packet_id))
+
+
+def decode_packet(model: Model, packet_id: int, data: bytes) -> dict[int, Any]:
+    """Decode the data bytes of one (single or group) packet: single id → decoded value.
+
+    Raises ``ValueError`` for an id the model lacks or a wrong number of bytes.
+    """
+    size = packet_size(model, packet_id)
+    if len(data) != size:
+        raise ValueError(f"packet {packet_id} has {size} data bytes on the {model.value}, "
+                         f"got {len(data)}")
+    table = _TABLES[model]
+    out: dict[int, Any] = {}
+    pos = 0
+    for pid in member_ids(model, packet_id):
+        spec = table[pid]
+        out[pid] = spec.decode(spec.raw_from_bytes(data[pos:pos + spec.size]))
+        pos += spec.size
+    return out
+
+
+def decode_id_data_pairs(model: Model, payload: bytes) -> dict[int, Any]:
+    """Decode a stream frame's payload, ``[id][data…][id][data…]…``: single id → value.
+
+    Raises ``ValueError`` on an unknown id or when the bytes do not split into whole packets.
+    """
+    out: dict[int, Any] = {}
+    pos = 0
+    while pos < len(payload):
+        pid = payload[pos]
+        if not is_packet_id(model, pid):
+            raise ValueError(f"unknown packet id {pid} at payload offset {pos}")
+        size = packet_size(model, pid)
+        data = payload[pos + 1:pos + 1 + size]
+        if len(data) != size:
+            raise ValueError(f"packet {pid} needs {size} data bytes, payload has {len(data)} left")
+        out.update(decode_packet(model, pid, data))
+        pos += 1 + size
+    return out
+
+
+def encode_packet(model: Model, packet_id: int, raw_values: Mapping[int, int]) -> bytes:
+    """The data bytes the robot sends for ``packet_id``, from raw integers per single id.
+
+    Missing single ids are sent as 0. Values are saturated to each packet's range, as the robot
+    caps its distance/angle accumulators.
+    """
+    table = _TABLES[model]
+    return b"".join(table[pid].raw_to_bytes(raw_values.get(pid, 0))
+                    for pid in member_ids(model, packet_id))
+
+
+def state_updates(model: Model, decoded: Mapping[int, Any]) -> dict[str, Any]:
+    """The :class:`SensorState` attributes set by decoded single packets."""
+    table = _TABLES[model]
+    out: dict[str, Any] = {}
+    for pid, value in decoded.items():
+        out.update(table[pid].fields(value))
+    return out
+
+
+@dataclass(frozen=True)
+class SensorState:
+    """The latest value of every sensor packet received (defaults until one arrives).
+
+    ``distance_mm`` and ``angle_deg`` are what the robot reported in the latest packet 19/20: the
+    motion since its previous report, not a total. ``received`` holds every single packet id seen.
+    """
+
+    model: Model = Model.CREATE2
+    bump_left: bool = False
+    bump_right: bool = False
+    wheel_drop_left: bool = False
+    wheel_drop_right: bool = False
+    caster_drop: bool = False
+    wall: bool = False
+    cliff_left: bool = False
+    cliff_front_left: bool = False
+    cliff_front_right: bool = False
+    cliff_right: bool = False
+    virtual_wall: bool = False
+    overcurrent_left_wheel: bool = False
+    overcurrent_right_wheel: bool = False
+    overcurrents: Overcurrents = Overcurrents()
+    dirt_detect: int = 0
+    ir_omni: int | None = None
+    ir_left: int | None = None
+    ir_right: int | None = None
+    buttons: Buttons = Buttons()
+    distance_mm: int = 0
+    angle_deg: int = 0
+    charging_state: ChargingState | int = ChargingState.NOT_CHARGING
+    voltage_mv: int = 0
+    current_ma: int = 0
+    battery_temp_c: int = 0
+    charge_mah: int = 0
+    capacity_mah: int = 0
+    wall_signal: int = 0
+    cliff_left_signal: int = 0
+    cliff_front_left_signal: int = 0
+    cliff_front_right_signal: int = 0
+    cliff_right_signal: int = 0
+    cargo_bay_inputs: CargoBayInputs = CargoBayInputs()
+    cargo_bay_analog: int = 0
+    charging_sources: ChargingSources = ChargingSources()
+    oi_mode: OIMode = OIMode.OFF
+    song_number: int = 0
+    song_playing: bool = False
+    stream_packet_count: int = 0
+    requested_velocity: int = 0
+    requested_radius: int = 0
+    requested_right_velocity: int = 0
+    requested_left_velocity: int = 0
+    encoder_left: int = 0
+    encoder_right: int = 0
+    light_bumper: int = 0
+    light_bump_left_signal: int = 0
+    light_bump_front_left_signal: int = 0
+    light_bump_center_left_signal: int = 0
+    light_bump_center_right_signal: int = 0
+    light_bump_front_right_signal: int = 0
+    light_bump_right_signal: int = 0
+    left_motor_current_ma: int = 0
+    right_motor_current_ma: int = 0
+    main_brush_current_ma: int = 0
+    side_brush_current_ma: int = 0
+    stasis: int = 0
+    received: frozenset[int] = frozenset()
+
+    @property
+    def any_bump(self) -> bool:
+        return self.bump_left or self.bump_right
+
+    @property
+    def any_wheel_drop(self) -> bool:
+        return self.wheel_drop_left or self.wheel_drop_right or self.caster_drop
+
+    @property
+    def any_cliff(self) -> bool:
+        return (self.cliff_left or self.cliff_front_left or self.cliff_front_right
+                or self.cliff_right)
+
+    @property
+    def light_bumps(self) -> LightBumper:
+        """``light_bumper`` decoded into named bits."""
+        return LightBumper.from_raw(self.light_bumper)
+
+    def with_packets(self, decoded: Mapping[int, Any]) -> SensorState:
+        """A new state with the decoded single packets (id → value) merged in."""
+        if not decoded:
+            return self
+        updates = state_updates(self.model, decoded)
+        return dataclasses.replace(self, received=self.received | frozenset(decoded), **updates)
+
+    @classmethod
+    def initial(cls, model: Model) -> SensorState:
+        """The state before any packet arrived."""
+        return cls(model=model)
+
+
+def stream_ids_size(model: Model, ids: Iterable[int]) -> int:
+    """Payload length (the frame's n-bytes) of a stream of ``ids``: Σ (1 + data size)."""
+    return sum(1 + packet_size(model, i) for i in ids)

@@ -1,0 +1,112 @@
+"""The run report (JSON) and the event log (JSON Lines), as the design brief specifies.
+
+The event log is written line by line and flushed as events happen, and the report is written
+in a ``finally`` block, so an aborted, failed or interrupted run loses nothing.
+
+Report keys: ``outcome`` ("success" | "failed" | "aborted"), ``reason``, ``sim_time_s``,
+``wall_time_s``, ``ticks``, ``waypoints: [{colour, side, outcome, passed_on, min_clearance_mm}]``,
+``collisions``, ``safety_events: [{t, event, state}]``, ``tick_ms: {p50, p99, max}``,
+``overruns`` — plus ``mission``, ``seed``, ``robot``, ``camera`` and ``speedup``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+SUCCESS = "success"
+FAILED = "failed"
+ABORTED = "aborted"
+
+
+@dataclass
+class WaypointResult:
+    colour: str
+    side: str
+    outcome: str = "pending"  # "passed" | "failed" | "pending"
+    passed_on: str | None = None  # from ground truth (simulator only)
+    min_clearance_mm: float | None = None  # from ground truth (simulator only)
+
+
+@dataclass
+class RunReport:
+    mission: str
+    outcome: str = ABORTED
+    reason: str = "not started"
+    sim_time_s: float = 0.0
+    wall_time_s: float = 0.0
+    ticks: int = 0
+    waypoints: list[WaypointResult] = field(default_factory=list)
+    collisions: int = 0
+    safety_events: list[dict[str, Any]] = field(default_factory=list)
+    tick_ms: dict[str, float] = field(default_factory=lambda: {"p50": 0.0, "p99": 0.0, "max": 0.0})
+    overruns: int = 0
+    seed: int | None = None
+    robot: str = "sim"
+    camera: str = "sim"
+
+    @property
+    def speedup(self) -> float | None:
+        if self.wall_time_s <= 0:
+            return None
+        return self.sim_time_s / self.wall_time_s
+
+    def set_tick_times(self, tick_s: list[float]) -> None:
+        if tick_s:
+            ms = np.asarray(tick_s) * 1000.0
+            self.tick_ms = {
+                "p50": round(float(np.percentile(ms, 50)), 3),
+                "p99": round(float(np.percentile(ms, 99)), 3),
+                "max": round(float(ms.max()), 3),
+            }
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        s = self.speedup
+        d["speedup"] = round(s, 2) if s is not None and math.isfinite(s) else None
+        d["sim_time_s"] = round(self.sim_time_s, 3)
+        d["wall_time_s"] = round(self.wall_time_s, 3)
+        return d
+
+    def write(self, path: str | Path) -> None:
+        p = Path(path)
+        p.parent.mkdir(parents=True, exist_ok=True)
+        tmp = p.with_suffix(p.suffix + ".tmp")
+        tmp.write_text(json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8")
+        tmp.replace(p)
+
+
+class EventLog:
+    """Append-only JSON Lines log, flushed after every event."""
+
+    def __init__(self, path: str | Path | None) -> None:
+        self.path = Path(path) if path is not None else None
+        self._fh: TextIO | None = None
+        self.count = 0
+        if self.path is not None:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._fh = open(self.path, "w", encoding="utf-8")  # noqa: SIM115 (closed in close())
+
+    def write(self, t: float, kind: str, **data: Any) -> None:
+        self.count += 1
+        if self._fh is None:
+            return
+        record = {"t": round(t, 4), "kind": kind, **data}
+        self._fh.write(json.dumps(record, default=str) + "\n")
+        self._fh.flush()
+
+    def close(self) -> None:
+        if self._fh is not None:
+            self._fh.close()
+            self._fh = None
+
+    def __enter__(self) -> EventLog:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

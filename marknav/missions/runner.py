@@ -1,0 +1,241 @@
+"""The control loop: tick the mission tree at a fixed rate against an environment.
+
+One cycle (``control.rate_hz``): the environment delivers what happened since the last cycle
+(sensor frames, safety timeouts), the tree ticks once (perception → guards → route), then time
+moves to the next cycle — by sleeping (real robot, or ``--realtime``) or by stepping the
+simulator. Each cycle's processing time is measured; a cycle longer than the period is an
+overrun. The loop ends when the tree's root is no longer RUNNING, at the time limit, or on
+Ctrl-C / SIGTERM; in every case the wheels are stopped first, then the report and the event log
+are completed.
+
+Environments (the simulator, a real Create + camera) implement :class:`Environment`.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import signal
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from types import FrameType
+from typing import Any, Protocol, TextIO
+
+import py_trees
+from py_trees.common import Status
+
+from marknav.clock import Clock
+from marknav.drivers.robot import ESTOPPED, FAULT, Robot
+from marknav.missions.display import TreeView
+from marknav.missions.report import ABORTED, FAILED, SUCCESS, EventLog, RunReport, WaypointResult
+from marknav.vision.sources import FrameSource
+
+log = logging.getLogger(__name__)
+
+
+class Environment(Protocol):
+    """Robot, camera and time for one run."""
+
+    name: str
+    clock: Clock
+    robot: Robot
+    camera: FrameSource
+
+    def poll(self) -> None:
+        """Process what arrived since the last call (sensor frames, safety timeouts)."""
+        ...
+
+    def advance(self, until: float) -> None:
+        """Let time reach ``until`` (clock seconds): sleep, or step the simulation."""
+        ...
+
+    def safety_events(self) -> list[dict[str, Any]]:
+        """Safety transitions so far, as ``{t, event, state, detail}`` dicts."""
+        ...
+
+    def finish(self, report: RunReport) -> None:
+        """Fill in what only this environment knows (ground truth, collisions)."""
+        ...
+
+    def close(self) -> None:
+        """Stop the wheels and release the hardware. Idempotent."""
+        ...
+
+
+@dataclass
+class RunOptions:
+    rate_hz: float = 20.0
+    max_time_s: float = 300.0
+    realtime: bool = False  # pace a simulated clock at wall-clock speed
+    sleep: bool = False  # the clock is real: sleep until the next cycle
+    tree_style: str = "none"
+    view_out: TextIO | None = None
+    setup_timeout_s: float = 5.0
+
+
+class Interrupted(Exception):
+    """Raised inside the loop by SIGINT/SIGTERM."""
+
+
+@contextmanager
+def _signals_interrupt() -> Iterator[None]:
+    """Turn SIGINT and SIGTERM into :class:`Interrupted` for the duration of a run."""
+
+    def handler(signum: int, frame: FrameType | None) -> None:
+        raise Interrupted(signal.Signals(signum).name)
+
+    try:
+        old_int = signal.signal(signal.SIGINT, handler)
+        old_term = signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old_int)
+        signal.signal(signal.SIGTERM, old_term)
+
+
+def failure_reason(root: py_trees.behaviour.Behaviour) -> str:
+    """The deepest failed node and its feedback: why the tree failed."""
+    reason = ""
+    for node in root.iterate():
+        if node.status == Status.FAILURE:
+            reason = f"{node.name}: {node.feedback_message}" if node.feedback_message else node.name
+    return reason or f"{root.name} failed"
+
+
+def active_path(root: py_trees.behaviour.Behaviour) -> str:
+    """Names from the root down to the running leaf."""
+    names = []
+    node = root
+    while True:
+        names.append(node.name)
+        running = [c for c in node.children if c.status == Status.RUNNING]
+        if not running:
+            break
+        node = running[0]
+    return " / ".join(names)
+
+
+def run_tree(
+    root: py_trees.behaviour.Behaviour,
+    env: Environment,
+    report: RunReport,
+    events: EventLog,
+    options: RunOptions,
+    *,
+    setup_kwargs: dict[str, Any] | None = None,
+    status_line: Callable[[], str] | None = None,
+    waypoint_outcomes: Callable[[], list[str]] | None = None,
+) -> RunReport:
+    """Run ``root`` in ``env`` until it finishes, the time runs out, or a signal arrives.
+
+    Always stops the wheels and completes ``report`` (the caller writes it). Returns it.
+    """
+    tree = py_trees.trees.BehaviourTree(root)
+    view = TreeView(tree, options.view_out, style=options.tree_style,
+                    status_line=status_line) if options.view_out is not None else None
+    period = 1.0 / options.rate_hz
+    tick_times: list[float] = []
+    wall0 = time.perf_counter()
+    t0 = env.clock.now()
+    last_status: Status | None = None
+    n_safety = 0
+    report.outcome, report.reason = ABORTED, "did not start"
+    try:
+        with _signals_interrupt():
+            tree.setup(timeout=options.setup_timeout_s, **(setup_kwargs or {}))
+            events.write(env.clock.now() - t0, "start", mission=report.mission, env=env.name)
+            t_next = env.clock.now()
+            while True:
+                c0 = time.perf_counter()
+                env.poll()
+                tree.tick()
+                dt = time.perf_counter() - c0
+                tick_times.append(dt)
+                if dt > period:
+                    report.overruns += 1
+                report.ticks += 1
+                now = env.clock.now() - t0
+                status = root.status
+                safety = env.safety_events()
+                for ev in safety[n_safety:]:
+                    events.write(ev.get("t", now), "safety", **{k: v for k, v in ev.items()
+                                                               if k != "t"})
+                n_safety = len(safety)
+                if status != last_status:
+                    events.write(now, "status", status=status.value, active=active_path(root))
+                    last_status = status
+                if view is not None:
+                    view.update()
+                if status == Status.SUCCESS:
+                    report.outcome, report.reason = SUCCESS, "every waypoint passed"
+                    break
+                if status == Status.FAILURE:
+                    reason = failure_reason(root)
+                    state = env.robot.safety_state
+                    aborted = state in (FAULT, ESTOPPED) or "abort" in reason.lower()
+                    report.outcome = ABORTED if aborted else FAILED
+                    report.reason = reason
+                    break
+                if now >= options.max_time_s:
+                    report.outcome = FAILED
+                    report.reason = f"time limit: {options.max_time_s:g} s"
+                    break
+                t_next += period
+                if options.realtime and not options.sleep:
+                    lag = (t_next - t0) - (time.perf_counter() - wall0)
+                    if lag > 0:
+                        time.sleep(lag)
+                env.advance(t_next)
+    except Interrupted as exc:
+        report.outcome, report.reason = ABORTED, f"interrupted ({exc})"
+        raise
+    except KeyboardInterrupt:
+        report.outcome, report.reason = ABORTED, "interrupted (SIGINT)"
+        raise
+    finally:
+        # Wheels first, then everything else.
+        try:
+            env.robot.stop()
+        except Exception:  # the link may be gone; the environment's close() tries again
+            log.exception("stopping the wheels failed")
+        try:
+            tree.interrupt()
+        except Exception:
+            log.exception("interrupting the tree failed")
+        report.sim_time_s = env.clock.now() - t0
+        report.wall_time_s = time.perf_counter() - wall0
+        report.set_tick_times(tick_times)
+        if waypoint_outcomes is not None:
+            for wp, outcome in zip(report.waypoints, waypoint_outcomes(), strict=False):
+                wp.outcome = outcome
+        try:
+            env.finish(report)
+        except Exception:
+            log.exception("collecting ground truth failed")
+        report.safety_events = [
+            {k: v for k, v in ev.items()} for ev in env.safety_events()
+        ]
+        events.write(report.sim_time_s, "end", outcome=report.outcome, reason=report.reason,
+                     ticks=report.ticks)
+    return report
+
+
+def percentile(values: list[float], q: float) -> float:
+    if not values:
+        return math.nan
+    s = sorted(values)
+    k = (len(s) - 1) * q / 100.0
+    lo, hi = math.floor(k), math.ceil(k)
+    return s[lo] + (s[hi] - s[lo]) * (k - lo)
+
+
+def new_report(mission_name: str, route: list[tuple[str, str]], **kw: Any) -> RunReport:
+    """A report with one pending waypoint per (colour, side) of the route."""
+    return RunReport(mission=mission_name,
+                     waypoints=[WaypointResult(colour=c, side=s) for c, s in route], **kw)

@@ -1,0 +1,606 @@
+"""The mission file: its schema, its checks and loading it with line-numbered errors.
+
+Implements the design brief's "Mission file" section (every key it lists, with its meaning),
+plus optional keys with defaults so a minimal mission is ``name``, ``route`` and ``marks``.
+Ranges come from the hardware and the paper:
+
+- wheel speeds are limited to ±500 mm/s by the Create Open Interface (Drive/Drive Direct, both
+  Create 1 and Create 2 specifications);
+- ``camera.range`` is the paper's range model: ``power`` is eq. 19 (d = a·r^b, the fit of Table 1,
+  a = 58958, b = −0.9434), ``pinhole`` is eq. 18 in the far-field form d = f·R / r;
+- ``navigation.clearance_mm`` is the distance from the robot's centre to the mark's centre while
+  passing it, so it must exceed the robot's radius plus the mark's radius.
+
+Loading goes through :mod:`marknav.yamlio` (safe loader, duplicate keys rejected, positions of
+every node kept). Every problem is reported, as ``FILE:LINE:COLUMN: field.path: message``;
+cross-field problems point at the field the author most likely has to change: the one written in
+the file, and among those the first listed in each check.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    ValidationError,
+    ValidationInfo,
+    ValidatorFunctionWrapHandler,
+    field_validator,
+    model_validator,
+)
+from pydantic_core import InitErrorDetails, PydanticCustomError
+
+from marknav.errors import InputError, InputErrors
+from marknav.missions.registry import (
+    UNKNOWN_KEY,
+    NodeRegistry,
+    TreeNode,
+    default_registry,
+    model_problems,
+)
+from marknav.vision.palette import ColourRange, Palette
+from marknav.yamlio import Loc, Position, YamlDocument, load_yaml_file, validation_errors
+
+#: The Create's wheel speed limit (OI spec, Drive Direct: −500..500 mm/s).
+CREATE_MAX_SPEED_MM_S = 500.0
+#: Wheel base by model: Create 2 from the field notes (235 mm), Create 1 as libcreate uses it.
+WHEEL_BASE_MM = {"create1": 258.0, "create2": 235.0}
+#: The paper's eq. 19, fitted to its Table 1 (mark radius 100 mm).
+PAPER_POWER_A = 58958.0
+PAPER_POWER_B = -0.9434
+
+Hue = Annotated[int, Field(ge=0, le=179)]
+ColourName = Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_-]*$")]
+
+
+def _problem(kind: str, message: str, loc: Loc, value: Any) -> InitErrorDetails:
+    return InitErrorDetails(type=PydanticCustomError(kind, message), loc=loc, input=value)
+
+
+def _raise(title: str, problems: list[InitErrorDetails]) -> None:
+    """Raise the problems (with their own locations) as one ValidationError, if there are any."""
+    if problems:
+        raise ValidationError.from_exception_data(title, problems)
+
+
+def _hue_set(lo: int, hi: int) -> set[int]:
+    return {(lo + i) % 180 for i in range((hi - lo) % 180 + 1)}
+
+
+# --------------------------------------------------------------------------------------------
+# Sections
+# --------------------------------------------------------------------------------------------
+
+
+class ColourSpec(BaseModel):
+    """A mark colour: its hue range and on which side the robot passes it."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    hue: tuple[Hue, Hue] = Field(
+        description="Hue range [from, to] in OpenCV units 0..179, inclusive. It wraps past 179 "
+        "when from > to: red is [170, 10].",
+    )
+    side: Literal["left", "right"] = Field(
+        description="Side of the mark the robot passes on. left: the robot drives by with the "
+        "mark on its right; right: with the mark on its left.",
+    )
+    sat_min: int = Field(
+        default=100, ge=0, le=255,
+        description="Lowest saturation (0..255) a pixel of this mark may have.",
+    )
+    val_min: int = Field(
+        default=50, ge=0, le=255,
+        description="Lowest value/brightness (0..255) a pixel of this mark may have.",
+    )
+
+
+class Marks(BaseModel):
+    """The marks of the course."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    radius_mm: float = Field(
+        default=100.0, gt=0, allow_inf_nan=False,
+        description="Physical radius of every mark, in mm (a disc at camera height).",
+    )
+    colours: dict[ColourName, ColourSpec] = Field(
+        min_length=1,
+        description="Mark colours by name: hue range and pass side. Hue ranges must not overlap.",
+    )
+
+    @field_validator("colours")
+    @classmethod
+    def _no_overlap(cls, colours: dict[str, ColourSpec]) -> dict[str, ColourSpec]:
+        problems: list[InitErrorDetails] = []
+        seen: list[tuple[str, ColourSpec, set[int]]] = []
+        for name, spec in colours.items():
+            hues = _hue_set(*spec.hue)
+            for other, other_spec, other_hues in seen:
+                if hues & other_hues:
+                    lo, hi = spec.hue
+                    olo, ohi = other_spec.hue
+                    problems.append(_problem(
+                        "hue_overlap",
+                        f"hue range {lo}..{hi} overlaps {other}'s {olo}..{ohi}: a mark in the "
+                        "overlap could be either colour",
+                        (name, "hue"), list(spec.hue),
+                    ))
+                    break
+            seen.append((name, spec, hues))
+        _raise("Marks", problems)
+        return colours
+
+
+class Robot(BaseModel):
+    """The robot base."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    model: Literal["create1", "create2"] = Field(
+        default="create2",
+        description="iRobot Create model: create1 (57600 baud) or create2 (115200 baud).",
+    )
+    wheel_base_mm: float = Field(
+        default=WHEEL_BASE_MM["create2"], gt=0, allow_inf_nan=False,
+        description="Distance between the wheels, in mm. Default: 235 (create2), 258 (create1).",
+    )
+    radius_mm: float = Field(
+        default=165.0, gt=0, allow_inf_nan=False,
+        description="Radius of the robot's round body, in mm (used for the clearance check).",
+    )
+    max_speed_mm_s: float = Field(
+        default=300.0, gt=0, allow_inf_nan=False,
+        description="Highest wheel speed the controller may command, in mm/s (the Create's limit "
+        "is 500).",
+        json_schema_extra={"maximum": CREATE_MAX_SPEED_MM_S},
+    )
+
+    @field_validator("max_speed_mm_s")
+    @classmethod
+    def _create_limit(cls, value: float) -> float:
+        if value > CREATE_MAX_SPEED_MM_S:
+            raise PydanticCustomError(
+                "less_than_equal",
+                "{value} mm/s is more than the Create's wheel speed limit of {limit} mm/s",
+                {"value": f"{value:g}", "limit": f"{CREATE_MAX_SPEED_MM_S:g}"},
+            )
+        return value
+
+    @model_validator(mode="before")
+    @classmethod
+    def _wheel_base_of_model(cls, data: Any) -> Any:
+        if isinstance(data, dict) and "wheel_base_mm" not in data:
+            model = data.get("model", "create2")
+            if model in WHEEL_BASE_MM:
+                return {**data, "wheel_base_mm": WHEEL_BASE_MM[model]}
+        return data
+
+
+class PowerRange(BaseModel):
+    """Range from a mark's image radius by a power law (paper eq. 19): d_mm = a · r_px^b."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    model: Literal["power"] = Field(description="power: d = a · r^b, fitted to measurements.")
+    a: float = Field(gt=0, allow_inf_nan=False, description="Factor a (mm at r = 1 px).")
+    b: float = Field(lt=0, allow_inf_nan=False, description="Exponent b (negative).")
+
+
+class PinholeRange(BaseModel):
+    """Range from a mark's image radius by the pinhole model (paper eq. 18, far field):
+    d_mm = focal_px · R_mm / r_px."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    model: Literal["pinhole"] = Field(description="pinhole: d = focal_px · R / r.")
+    focal_px: float = Field(gt=0, allow_inf_nan=False, description="Focal length in pixels.")
+
+
+RangeModel = Annotated[PowerRange | PinholeRange, Field(discriminator="model")]
+_RANGE_MODELS: dict[str, type[PowerRange] | type[PinholeRange]] = {
+    "power": PowerRange,
+    "pinhole": PinholeRange,
+}
+
+
+class Camera(BaseModel):
+    """The camera and how a mark's image size becomes its distance."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    width: int = Field(default=640, gt=0, le=10000, description="Image width in pixels.")
+    height: int = Field(default=480, gt=0, le=10000, description="Image height in pixels.")
+    focal_px: float = Field(
+        default=590.0, gt=0, allow_inf_nan=False,
+        description="Focal length in pixels: the simulated camera's, and the horizontal field of "
+        "view's (2·atan(width / (2·focal_px)), 57° by default).",
+    )
+    range: RangeModel = Field(
+        default=PowerRange(model="power", a=PAPER_POWER_A, b=PAPER_POWER_B),
+        description="Range model: {model: power, a, b} (default: the paper's eq. 19, a = 58958, "
+        "b = -0.9434) or {model: pinhole, focal_px}.",
+    )
+
+    @field_validator("range", mode="wrap")
+    @classmethod
+    def _dispatch_range(cls, value: Any, handler: ValidatorFunctionWrapHandler) -> Any:
+        # Validate by the 'model' key directly, so errors name the path the author wrote
+        # (camera.range.a), without the union tag pydantic would insert.
+        if isinstance(value, dict):
+            model = value.get("model")
+            if isinstance(model, str) and model in _RANGE_MODELS:
+                problems = model_problems(_RANGE_MODELS[model], value)
+                _raise("Camera", problems)
+                return _RANGE_MODELS[model].model_validate(value)
+            if model is None:
+                problem = _problem("missing", "missing 'model': power or pinhole", ("model",), None)
+            else:
+                close = difflib.get_close_matches(str(model), list(_RANGE_MODELS), n=1)
+                hint = f"; did you mean {close[0]!r}?" if close else " (power or pinhole)"
+                problem = _problem(
+                    "range_model", f"unknown range model {model!r}{hint}", ("model",), model)
+            raise ValidationError.from_exception_data("Camera", [problem])
+        return handler(value)
+
+    @property
+    def hfov_deg(self) -> float:
+        """Horizontal field of view, degrees."""
+        return math.degrees(2.0 * math.atan(self.width / (2.0 * self.focal_px)))
+
+    @property
+    def vfov_deg(self) -> float:
+        """Vertical field of view, degrees (square pixels)."""
+        return math.degrees(2.0 * math.atan(self.height / (2.0 * self.focal_px)))
+
+
+class Search(BaseModel):
+    """Turning on the spot to find a target that is not in view."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    turn_speed_deg_s: float = Field(
+        default=40.0, gt=0, allow_inf_nan=False, description="Turn rate while searching, degrees/s."
+    )
+    timeout_s: float = Field(
+        default=15.0, gt=0, allow_inf_nan=False,
+        description="Give up (the mission fails) after searching this long, seconds.",
+    )
+
+
+class Navigation(BaseModel):
+    """Approach, bypass and search settings."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    bypass_distance_mm: float = Field(
+        default=800.0, gt=0, allow_inf_nan=False,
+        description="Start the Bézier bypass when the target is this close, mm.",
+    )
+    clearance_mm: float = Field(
+        default=300.0, gt=0, allow_inf_nan=False,
+        description="Distance kept between the robot's centre and the mark's centre when passing "
+        "it, mm. Must exceed robot.radius_mm + marks.radius_mm.",
+    )
+    approach_speed_mm_s: float = Field(
+        default=250.0, gt=0, allow_inf_nan=False,
+        description="Forward speed while approaching a mark, mm/s (at most robot.max_speed_mm_s).",
+    )
+    lost_after_s: float = Field(
+        default=0.5, gt=0, allow_inf_nan=False,
+        description="A target unseen this long, seconds, is lost: the robot searches for it.",
+    )
+    lookahead_mm: float = Field(
+        default=150.0, gt=0, allow_inf_nan=False,
+        description="Pure-pursuit lookahead along the bypass curve, mm.",
+    )
+    search: Search = Field(default=Search(), description="Searching for a lost target.")
+
+
+class Safety(BaseModel):
+    """The safety layer between the tree and the wheels."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    command_timeout_s: float = Field(
+        default=0.3, gt=0, allow_inf_nan=False,
+        description="Stop the wheels when no fresh wheel command came for this long, seconds "
+        "(at least two control periods).",
+    )
+    sensor_timeout_s: float = Field(
+        default=0.2, gt=0.015, allow_inf_nan=False,
+        description="Stop the wheels when no valid sensor frame came for this long, seconds "
+        "(the Create streams every 15 ms).",
+    )
+    max_bump_recoveries: int = Field(
+        default=2, ge=0, description="Bumper contacts recovered from before the mission is aborted."
+    )
+
+
+class Control(BaseModel):
+    """The fixed-rate control loop."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    rate_hz: float = Field(
+        default=20.0, ge=1, le=100, allow_inf_nan=False,
+        description="Control loop rate, Hz (1..100).",
+    )
+
+
+class Sim(BaseModel):
+    """Simulator settings (used when running with --robot sim)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    world: Path | None = Field(
+        default=None,
+        description="World file for the simulator, relative to this mission file. Without one, "
+        "a world is generated from the route and the seed.",
+    )
+    seed: int = Field(
+        default=0, ge=0,
+        description="Random seed of the simulator (--seed overrides it).",
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# The mission
+# --------------------------------------------------------------------------------------------
+
+
+class Mission(BaseModel):
+    """A marknav mission: the route of coloured marks to pass, and how to drive it."""
+
+    model_config = ConfigDict(extra="forbid", title="marknav mission")
+
+    name: str = Field(min_length=1, description="Name of the mission (shown in reports).")
+    marks: Marks = Field(description="The marks: their radius, colours and pass sides.")
+    route: list[str] = Field(
+        min_length=1, description="Marks to pass, in order, by colour name (from marks.colours)."
+    )
+    robot: Robot = Field(default=Robot(), description="The robot base.")
+    camera: Camera = Field(default=Camera(), description="The camera and range model.")
+    navigation: Navigation = Field(
+        default=Navigation(), description="Approach, bypass and search settings."
+    )
+    safety: Safety = Field(default=Safety(), description="Safety layer timeouts and limits.")
+    control: Control = Field(default=Control(), description="The control loop.")
+    sim: Sim | None = Field(default=None, description="Simulator settings: world file and seed.")
+    tree: TreeNode | None = Field(
+        default=None,
+        description="A custom behaviour tree built from py_trees composites, decorators and "
+        "registered behaviours. Without it the default route tree is used.",
+    )
+
+    _document: YamlDocument | None = PrivateAttr(None)
+    _source_path: Path | None = PrivateAttr(None)
+
+    # validation -----------------------------------------------------------------------------
+
+    @field_validator("route")
+    @classmethod
+    def _route_colours_exist(cls, route: list[str], info: ValidationInfo) -> list[str]:
+        marks = info.data.get("marks")
+        if not isinstance(marks, Marks):
+            return route  # marks has its own errors
+        known = list(marks.colours)
+        problems: list[InitErrorDetails] = []
+        for i, colour in enumerate(route):
+            if colour in marks.colours:
+                continue
+            close = difflib.get_close_matches(colour, known, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else f" (colours: {', '.join(known)})"
+            problems.append(_problem(
+                "route_colour", f"colour {colour!r} is not defined in marks.colours{hint}",
+                (i,), colour,
+            ))
+        _raise("Mission", problems)
+        return route
+
+    @model_validator(mode="after")
+    def _cross_checks(self) -> Mission:
+        nav, robot, marks = self.navigation, self.robot, self.marks
+        problems: list[InitErrorDetails] = []
+
+        def blame(*candidates: Loc) -> Loc:
+            # The first candidate written in the file; the first of all if none was written.
+            return next((loc for loc in candidates if self._written(loc)), candidates[0])
+
+        if nav.approach_speed_mm_s > robot.max_speed_mm_s:
+            problems.append(_problem(
+                "speed_order",
+                f"approach_speed_mm_s {nav.approach_speed_mm_s:g} exceeds "
+                f"robot.max_speed_mm_s {robot.max_speed_mm_s:g}",
+                blame(("navigation", "approach_speed_mm_s"), ("robot", "max_speed_mm_s")),
+                nav.approach_speed_mm_s,
+            ))
+        touch = robot.radius_mm + marks.radius_mm
+        if nav.clearance_mm <= touch:
+            problems.append(_problem(
+                "clearance",
+                f"clearance_mm {nav.clearance_mm:g} must exceed robot.radius_mm + "
+                f"marks.radius_mm = {robot.radius_mm:g} + {marks.radius_mm:g} = {touch:g}: "
+                "clearance is robot centre to mark centre, so with less the robot touches the mark",
+                blame(("navigation", "clearance_mm"), ("robot", "radius_mm"),
+                      ("marks", "radius_mm")),
+                nav.clearance_mm,
+            ))
+        if nav.bypass_distance_mm <= nav.clearance_mm:
+            problems.append(_problem(
+                "bypass_distance",
+                f"bypass_distance_mm {nav.bypass_distance_mm:g} must exceed clearance_mm "
+                f"{nav.clearance_mm:g}: the bypass starts farther from the mark than it passes it",
+                blame(("navigation", "bypass_distance_mm"), ("navigation", "clearance_mm")),
+                nav.bypass_distance_mm,
+            ))
+        turn_wheel = math.radians(nav.search.turn_speed_deg_s) * robot.wheel_base_mm / 2.0
+        if turn_wheel > robot.max_speed_mm_s:
+            problems.append(_problem(
+                "turn_speed",
+                f"turn_speed_deg_s {nav.search.turn_speed_deg_s:g} needs wheel speeds of "
+                f"{turn_wheel:.0f} mm/s (turn rate × wheel_base_mm / 2), more than "
+                f"robot.max_speed_mm_s {robot.max_speed_mm_s:g}",
+                blame(("navigation", "search", "turn_speed_deg_s"), ("robot", "max_speed_mm_s"),
+                      ("robot", "wheel_base_mm")),
+                nav.search.turn_speed_deg_s,
+            ))
+        min_timeout = 2.0 / self.control.rate_hz
+        if self.safety.command_timeout_s < min_timeout:
+            problems.append(_problem(
+                "command_timeout",
+                f"command_timeout_s {self.safety.command_timeout_s:g} must be at least two "
+                f"control periods (2 / control.rate_hz = {min_timeout:g} s), or the watchdog "
+                "stops the wheels between commands",
+                blame(("safety", "command_timeout_s"), ("control", "rate_hz")),
+                self.safety.command_timeout_s,
+            ))
+        _raise("Mission", problems)
+        return self
+
+    def _written(self, loc: Loc) -> bool:
+        """Whether the field at ``loc`` was given explicitly (not left to its default)."""
+        node: Any = self
+        for key in loc:
+            if not isinstance(node, BaseModel) or key not in node.model_fields_set:
+                return False
+            node = getattr(node, str(key))
+        return True
+
+    # use ------------------------------------------------------------------------------------
+
+    def palette(self) -> Palette:
+        """The mark colours as the detector's palette, in the order they are listed."""
+        return tuple(
+            ColourRange(name, spec.hue[0], spec.hue[1], sat_min=spec.sat_min, val_min=spec.val_min)
+            for name, spec in self.marks.colours.items()
+        )
+
+    def side_of(self, colour: str) -> Literal["left", "right"]:
+        """The side the robot passes a mark of ``colour`` on."""
+        try:
+            return self.marks.colours[colour].side
+        except KeyError:
+            raise KeyError(f"colour {colour!r} is not in the mission's marks.colours") from None
+
+    def route_summary(self) -> str:
+        """``red → green → red → blue, 4 waypoints``."""
+        n = len(self.route)
+        return f"{' → '.join(self.route)}, {n} waypoint{'s' if n != 1 else ''}"
+
+    @property
+    def document(self) -> YamlDocument | None:
+        """The YAML document the mission was loaded from (positions of every key), if any."""
+        return self._document
+
+    @property
+    def source_path(self) -> Path | None:
+        """The file the mission was loaded from, if any."""
+        return self._source_path
+
+    def position(self, loc: Iterable[str | int]) -> Position | None:
+        """Where the field at ``loc`` (e.g. ``("route", 2)``) is written, or its nearest
+        written ancestor; ``None`` when the mission did not come from a file."""
+        return self._document.position(tuple(loc)) if self._document is not None else None
+
+    def input_error(self, loc: Iterable[str | int], message: str) -> InputError:
+        """An :class:`InputError` pointing at the field ``loc`` of the mission file."""
+        path = tuple(loc)
+        pos = self.position(path)
+        return InputError(
+            message,
+            file=self._document.path if self._document is not None else None,
+            line=pos.line if pos else None,
+            column=pos.column if pos else None,
+            field=_fmt(path) or None,
+        )
+
+
+def _fmt(loc: Loc) -> str:
+    out = ""
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else ("." if out else "") + str(part)
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# Loading
+# --------------------------------------------------------------------------------------------
+
+
+def parse_mission(doc: YamlDocument, registry: NodeRegistry | None = None) -> Mission:
+    """Validate a parsed YAML document as a mission; raise :class:`InputErrors` with every
+    problem. ``registry`` (default: :func:`default_registry`) decides which tree node types exist.
+    ``sim.world`` is resolved relative to the document's file."""
+    if not isinstance(doc.data, dict):
+        pos = doc.position(())
+        raise InputError(
+            "a mission is a mapping of keys (name: ..., route: [...], marks: {...}), "
+            f"not {_kind(doc.data)}",
+            file=doc.path, line=pos.line if pos else 1, column=pos.column if pos else 1,
+        )
+    context = {"registry": registry or default_registry()}
+    try:
+        mission = Mission.model_validate(doc.data, context=context)
+    except ValidationError as exc:
+        raise _mission_errors(exc, doc) from None
+    mission._document = doc
+    mission._source_path = Path(doc.path)
+    if mission.sim is not None and mission.sim.world is not None:
+        mission.sim.world = Path(doc.path).parent / mission.sim.world
+    return mission
+
+
+def _kind(value: Any) -> str:
+    if isinstance(value, list):
+        return "a list"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, (int, float)):
+        return "a number"
+    return "null" if value is None else type(value).__name__
+
+
+def load_mission(path: str | Path, registry: NodeRegistry | None = None) -> Mission:
+    """Load and check a mission file. Bad input raises :class:`InputError` (one problem) or
+    :class:`InputErrors` (all of them), each ``FILE:LINE:COLUMN: field: message``."""
+    return parse_mission(load_yaml_file(path), registry)
+
+
+def _mission_errors(exc: ValidationError, doc: YamlDocument) -> InputErrors:
+    mapped = validation_errors(exc, doc, Mission)
+    # Unknown keys found by model_problems: point at the key, as yamlio does for the others.
+    for err in exc.errors(include_url=False):
+        if err["type"] != UNKNOWN_KEY:
+            continue
+        loc = tuple(err["loc"])
+        key_pos = doc.key_positions.get(loc)
+        if key_pos is None:
+            continue
+        for e in mapped.errors:
+            if e.field == _fmt(loc) and e.message == err["msg"]:
+                e.line, e.column = key_pos.line, key_pos.column
+    errors = sorted(mapped.errors, key=lambda e: (e.line or 0, e.column or 0))
+    return InputErrors(errors)
+
+
+def mission_json_schema(registry: NodeRegistry | None = None) -> dict[str, Any]:
+    """JSON Schema of mission files, for editors: every key with its description, the tree node
+    types of ``registry`` as suggestions, and each node type's params and required keys."""
+    registry = registry or default_registry()
+    schema = Mission.model_json_schema()
+    defs: dict[str, Any] = schema.setdefault("$defs", {})
+    node = defs["TreeNode"]
+    node["properties"]["type"]["examples"] = registry.names()
+    node["allOf"] = registry.json_schema_conditions(defs)
+    return {"$schema": "https://json-schema.org/draft/2020-12/schema", **schema}

@@ -1,0 +1,549 @@
+"""Simulated camera: a pinhole camera at mark height that renders the world (paper §3.1).
+
+The camera sits at the robot's centre (plus ``forward_offset_mm`` along the heading), at the
+height of the marks' centres, looking along the heading — the paper's set-up, in which a mark
+straight ahead at distance d has radius r = f·R/d (eq. 2) and a disc turned by α becomes an
+ellipse whose horizontal half-width is f·R·cos α / (d ± R·sin α) (eq. 3).
+
+Rendering (:class:`Renderer`, :func:`render`):
+
+- **Marks** are projected exactly: their rim (``RIM_POINTS`` points, radius scaled so the polygon
+  has the disc's area) goes through the pinhole model, clipped at the near plane, and the polygon
+  is filled — so perspective, obliquity (eq. 3) and discs seen from behind (the same colour on
+  both faces) come out right. Marks are painted far to near (occlusion), cut by the image edge,
+  fully saturated at ``ColourRange.centre_hue`` of their colour, with **no** rim. Edges are
+  anti-aliased with ``cv2.LINE_AA`` at 1/256 px precision; OpenCV's anti-aliased fill paints
+  ≈ 0.6 px beyond the true edge, so polygons are first moved in by ``AA_EDGE_BIAS_PX`` (measured:
+  the filled area then matches the disc's to ≈ 0.05 px of radius).
+- **Background**: a cylindrical panorama at infinity (one column per 1/f rad of azimuth), made
+  once per world: a low-saturation textured wall and floor, panels, a skirting board, and the
+  world's clutter (:func:`marknav.sim.world.clutter_items`: coloured posters and stripes, not
+  circular). A frame's background is a slice of it chosen by the heading (the pinhole's tangent
+  warp of the background is ignored; only the marks are projected exactly). Walls and boxes of the
+  world take part in collisions only; they are not drawn.
+- **Conditions**: lighting gain × colour cast are applied once to the panorama and the mark
+  colours; per frame, a Gaussian blur (σ ``blur_sigma_px``) and additive Gaussian noise (σ
+  ``noise_sigma``, from a pre-generated tile at a random offset drawn from ``rng``).
+
+:class:`SimCamera` is a :class:`marknav.vision.sources.FrameSource`: each ``read`` renders the
+pose from ``pose_fn()`` at ``clock.now()``; ``latency_frames`` delays delivery through a ring
+buffer. The principal point is the image centre ((width − 1)/2, (height − 1)/2), pixel centres
+at integer coordinates, as OpenCV's moments and ``fitEllipse`` count them.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections import deque
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+from marknav.clock import Clock
+from marknav.planning.kinematics import Pose
+from marknav.sim.world import Background, ClutterItem, World, clutter_items
+from marknav.vision.palette import ColourRange
+from marknav.vision.sources import Frame, Image
+
+__all__ = [
+    "AA_EDGE_BIAS_PX",
+    "RIM_POINTS",
+    "CameraConfig",
+    "ProjectedMark",
+    "Renderer",
+    "SimCamera",
+    "mark_bgr",
+    "project_marks",
+    "render",
+]
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Points on a mark's rim; with the area-matched radius the polygon's area equals the disc's.
+RIM_POINTS = 96
+#: How far OpenCV's anti-aliased fill reaches beyond a polygon's edge (measured, OpenCV 4.x/5.0).
+AA_EDGE_BIAS_PX = 0.6
+_SHIFT = 8  # fixed-point bits for cv2.fillPoly
+#: Elevation of the far wall's base below the horizon (camera above the floor), degrees.
+_WALL_BASE_DEG = 1.5
+
+
+@dataclass(frozen=True)
+class CameraConfig:
+    """A pinhole camera. ``principal`` defaults to the image centre; ``forward_offset_mm`` moves
+    the camera ahead of the robot's centre along the heading; ``near_mm`` is the near plane."""
+
+    width: int = 640
+    height: int = 480
+    focal_px: float = 590.0
+    principal: tuple[float, float] | None = None
+    forward_offset_mm: float = 0.0
+    near_mm: float = 10.0
+
+    def __post_init__(self) -> None:
+        if self.width < 16 or self.height < 16:
+            raise ValueError(f"camera: image too small ({self.width}×{self.height})")
+        if not self.focal_px > 0:
+            raise ValueError(f"camera: focal length must be positive, got {self.focal_px}")
+        if not self.near_mm > 0:
+            raise ValueError(f"camera: near plane must be positive, got {self.near_mm}")
+
+    @classmethod
+    def from_fov(cls, width: int, height: int, hfov_deg: float, **kwargs: Any) -> CameraConfig:
+        """A camera given its horizontal field of view instead of its focal length."""
+        if not 0 < hfov_deg < 180:
+            raise ValueError(f"camera: field of view must be in (0, 180) degrees, got {hfov_deg}")
+        focal = (width / 2.0) / math.tan(math.radians(hfov_deg) / 2.0)
+        return cls(width=width, height=height, focal_px=focal, **kwargs)
+
+    @property
+    def cx(self) -> float:
+        return self.principal[0] if self.principal is not None else (self.width - 1) / 2.0
+
+    @property
+    def cy(self) -> float:
+        return self.principal[1] if self.principal is not None else (self.height - 1) / 2.0
+
+    @property
+    def hfov_rad(self) -> float:
+        """Horizontal field of view (rad)."""
+        return 2.0 * math.atan((self.width / 2.0) / self.focal_px)
+
+
+def mark_bgr(colour: ColourRange) -> tuple[float, float, float]:
+    """The BGR colour (0..255) a mark of ``colour`` is painted: hue at the middle of the range,
+    full saturation and value."""
+    hsv = np.array([[[colour.centre_hue * 2.0, 1.0, 1.0]]], dtype=np.float32)
+    bgr = cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR)[0, 0] * 255.0
+    return (float(bgr[0]), float(bgr[1]), float(bgr[2]))
+
+
+# --- geometry ---------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ProjectedMark:
+    """A mark as the camera sees it: ``polygon`` is its rim in pixels (u right, v down), clipped
+    at the near plane; (u, v) is the projection of its centre; ``depth_mm`` the centre's distance
+    along the camera axis."""
+
+    index: int
+    depth_mm: float
+    u: float
+    v: float
+    polygon: FloatArray
+
+    @property
+    def bbox(self) -> tuple[float, float, float, float]:
+        """(u_min, v_min, u_max, v_max) of the rim."""
+        lo = self.polygon.min(axis=0)
+        hi = self.polygon.max(axis=0)
+        return (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+
+    def inside(self, config: CameraConfig, margin_px: float = 0.0) -> bool:
+        """Whether the whole rim lies in the image, ``margin_px`` from its edges."""
+        u0, v0, u1, v1 = self.bbox
+        return (u0 >= margin_px and v0 >= margin_px and u1 <= config.width - 1 - margin_px
+                and v1 <= config.height - 1 - margin_px)
+
+    def visible(self, config: CameraConfig) -> bool:
+        """Whether any of the rim's box overlaps the image."""
+        u0, v0, u1, v1 = self.bbox
+        return u1 >= -0.5 and v1 >= -0.5 and u0 <= config.width - 0.5 and v0 <= config.height - 0.5
+
+
+class _MarkGeometry:
+    """The marks' rims in world coordinates (x, y, height above the camera), computed once."""
+
+    def __init__(self, world: World) -> None:
+        n = RIM_POINTS
+        phi = np.linspace(0.0, 2.0 * math.pi, n, endpoint=False)
+        # Area-matched polygon: (n/2)·ρ²·sin(2π/n) = π·R².
+        k = math.sqrt((2.0 * math.pi / n) / math.sin(2.0 * math.pi / n))
+        rims = np.empty((len(world.marks), n, 3))
+        centres = np.empty((len(world.marks), 2))
+        for j, m in enumerate(world.marks):
+            r = m.radius() * k
+            ax, ay = math.cos(m.yaw_rad), math.sin(m.yaw_rad)  # in-plane horizontal axis
+            rims[j, :, 0] = m.x_mm + r * np.cos(phi) * ax
+            rims[j, :, 1] = m.y_mm + r * np.cos(phi) * ay
+            rims[j, :, 2] = r * np.sin(phi)
+            centres[j] = m.xy
+        self.rims = rims
+        self.centres = centres
+        self.radii = np.array([m.radius() for m in world.marks])
+
+    def project(self, pose: Pose, config: CameraConfig) -> list[ProjectedMark]:
+        if len(self.centres) == 0:
+            return []
+        c, s = math.cos(pose.theta), math.sin(pose.theta)
+        ox = pose.x + config.forward_offset_mm * c
+        oy = pose.y + config.forward_offset_mm * s
+        # Camera frame: Z forward (heading), X right (heading − 90°), Y down.
+        dcx = self.centres[:, 0] - ox
+        dcy = self.centres[:, 1] - oy
+        zc = dcx * c + dcy * s
+        keep = np.nonzero(zc + self.radii > config.near_mm)[0]
+        out: list[ProjectedMark] = []
+        f, cx, cy = config.focal_px, config.cx, config.cy
+        for j in keep:
+            dx = self.rims[j, :, 0] - ox
+            dy = self.rims[j, :, 1] - oy
+            z = dx * c + dy * s
+            x = dx * s - dy * c
+            y = -self.rims[j, :, 2]
+            if z.min() <= config.near_mm:
+                pts = _clip_near(np.stack([x, y, z], axis=1), config.near_mm)
+                if len(pts) < 3:
+                    continue
+                x, y, z = pts[:, 0], pts[:, 1], pts[:, 2]
+            poly = np.stack([cx + f * x / z, cy + f * y / z], axis=1)
+            zj = float(zc[j])
+            xj = float(dcx[j] * s - dcy[j] * c)
+            u = cx + f * xj / zj if zj > config.near_mm else math.nan
+            v = cy if zj > config.near_mm else math.nan
+            pm = ProjectedMark(index=int(j), depth_mm=zj, u=u, v=v, polygon=poly)
+            if pm.visible(config):
+                out.append(pm)
+        out.sort(key=lambda p: -p.depth_mm)  # painter's order: far to near
+        return out
+
+
+def _clip_near(pts: FloatArray, near: float) -> FloatArray:
+    """Sutherland–Hodgman clip of a closed 3-D polygon to z ≥ near."""
+    out: list[FloatArray] = []
+    n = len(pts)
+    for i in range(n):
+        a, b = pts[i], pts[(i + 1) % n]
+        a_in, b_in = a[2] >= near, b[2] >= near
+        if a_in:
+            out.append(a)
+        if a_in != b_in:
+            t = (near - a[2]) / (b[2] - a[2])
+            out.append(a + t * (b - a))
+    return np.array(out) if out else np.empty((0, 3))
+
+
+def project_marks(world: World, pose: Pose, config: CameraConfig = CameraConfig()) -> list[
+        ProjectedMark]:
+    """The marks the camera at ``pose`` sees (any part in the image), far to near."""
+    return _MarkGeometry(world).project(pose, config)
+
+
+@functools.lru_cache(maxsize=64)
+def _neighbours(n: int) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
+    idx = np.arange(n)
+    return np.roll(idx, -1), np.roll(idx, 1)
+
+
+def _shrink(poly: FloatArray, by: float) -> FloatArray:
+    """Move a convex polygon's vertices inward by ``by`` px (limited for very thin polygons)."""
+    i_next, i_prev = _neighbours(len(poly))
+    nxt = poly[i_next]
+    prv = poly[i_prev]
+    x, y = poly[:, 0], poly[:, 1]
+    area2 = float(np.dot(x, nxt[:, 1]) - np.dot(nxt[:, 0], y))
+    if area2 == 0.0:
+        return poly
+    edges = nxt - poly
+    perimeter = float(np.sum(np.sqrt(np.einsum("ij,ij->i", edges, edges))))
+    by = min(by, 0.25 * abs(area2) / perimeter)  # 0.25·2A/P = half the mean half-width
+    t = nxt - prv
+    norm = np.sqrt(np.einsum("ij,ij->i", t, t))
+    norm[norm == 0] = 1.0
+    k = math.copysign(by, area2) / norm
+    out = poly.copy()
+    out[:, 0] -= t[:, 1] * k
+    out[:, 1] += t[:, 0] * k
+    return out
+
+
+# --- background -------------------------------------------------------------------------------
+
+
+def _smooth_noise(rng: np.random.Generator, rows: int, cols: int, cell: int) -> FloatArray:
+    """Zero-mean, unit-ish smooth noise that wraps around horizontally."""
+    lr = max(2, rows // cell + 2)
+    lc = max(4, cols // cell)
+    low = rng.standard_normal((lr, lc)).astype(np.float32)
+    padded = np.hstack([low, low[:, :3]])
+    width = round((lc + 3) * cols / lc)
+    big = cv2.resize(padded, (width, rows), interpolation=cv2.INTER_CUBIC)
+    return np.asarray(big[:, :cols], dtype=np.float64)
+
+
+def _hsv_bgr(h: float, s: float, v: float) -> FloatArray:
+    hsv = np.array([[[h * 2.0, s / 255.0, v / 255.0]]], dtype=np.float32)
+    return np.asarray(cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR)[0, 0], dtype=np.float64) * 255.0
+
+
+def _draw_clutter(
+    pan: Image, item: ClutterItem, config: CameraConfig, wp: int, gains: FloatArray
+) -> None:
+    f, cy = config.focal_px, config.cy
+    col = (-item.azimuth_deg / 360.0 * wp) % wp
+    half_w = item.width_deg / 360.0 * wp / 2.0
+    top = cy - f * math.tan(math.radians(item.elevation_deg + item.height_deg / 2.0))
+    bottom = cy - f * math.tan(math.radians(item.elevation_deg - item.height_deg / 2.0))
+    bgr = np.minimum(_hsv_bgr(item.hue, item.sat, item.val) * gains, 255.0)
+    colour = (float(bgr[0]), float(bgr[1]), float(bgr[2]))
+    rects: list[tuple[float, float, float, float]] = []
+    if item.kind == "rect":
+        rects.append((col - half_w, top, col + half_w, bottom))
+    else:
+        n = 2 * item.bars - 1
+        if half_w * 2 >= bottom - top:  # vertical bars across a wide patch
+            step = 2 * half_w / n
+            rects += [(col - half_w + 2 * k * step, top, col - half_w + (2 * k + 1) * step, bottom)
+                      for k in range(item.bars)]
+        else:
+            step = (bottom - top) / n
+            rects += [(col - half_w, top + 2 * k * step, col + half_w, top + (2 * k + 1) * step)
+                      for k in range(item.bars)]
+    for u0, v0, u1, v1 in rects:
+        for shift in (-wp, 0, wp):
+            pts = np.array([[u0 + shift, v0], [u1 + shift, v0], [u1 + shift, v1],
+                            [u0 + shift, v1]])
+            cv2.fillPoly(pan, [np.round(pts * (1 << _SHIFT)).astype(np.int32)], colour,
+                         cv2.LINE_AA, _SHIFT)
+
+
+@functools.lru_cache(maxsize=4)
+def _panorama(
+    background: Background, gains_bgr: tuple[float, float, float], config: CameraConfig
+) -> Image:
+    """The background for every heading: H × Wp × 3 (Wp = 2πf columns), gains applied.
+    Cached: worlds that differ only in their marks share it (treat it as read-only)."""
+    rng = np.random.default_rng([background.seed, 0xBAC6])
+    h = config.height
+    wp = round(2.0 * math.pi * config.focal_px)
+    cy = config.cy
+    base_row = round(cy + config.focal_px * math.tan(math.radians(_WALL_BASE_DEG)))
+    base_row = min(max(base_row, 1), h - 1)
+
+    pan = np.empty((h, wp, 3), dtype=np.float32)
+    wall_hue, wall_sat, wall_val = rng.uniform(0, 180), rng.uniform(8, 30), rng.uniform(140, 180)
+    floor_hue, floor_sat, floor_val = rng.uniform(0, 180), rng.uniform(10, 35), rng.uniform(85, 120)
+    pan[:base_row] = _hsv_bgr(wall_hue, wall_sat, wall_val)
+    pan[base_row:] = _hsv_bgr(floor_hue, floor_sat, floor_val)
+    # Panels and pillars: grey rectangles standing on the wall's base.
+    for _ in range(int(rng.integers(5, 12))):
+        c0 = float(rng.uniform(0, wp))
+        width = float(rng.uniform(30, 220))
+        top = float(rng.uniform(0, base_row - 20))
+        grey = _hsv_bgr(float(rng.uniform(0, 180)), float(rng.uniform(0, 25)),
+                        float(rng.uniform(110, 200)))
+        for shift in (-wp, 0, wp):
+            pts = np.array([[c0 + shift, top], [c0 + width + shift, top],
+                            [c0 + width + shift, base_row], [c0 + shift, base_row]])
+            cv2.fillPoly(pan, [np.round(pts * (1 << _SHIFT)).astype(np.int32)],
+                         tuple(float(v) for v in grey), cv2.LINE_8, _SHIFT)
+    # Texture: smooth shading plus grain, stronger on the floor.
+    shade = _smooth_noise(rng, h, wp, 24).astype(np.float32)
+    grain = rng.standard_normal((h, wp), dtype=np.float32)
+    amp = np.where(np.arange(h)[:, None] < base_row, 9.0, 14.0).astype(np.float32)
+    pan += (amp * shade + 3.0 * grain)[:, :, None]
+    # Skirting board.
+    pan[max(0, base_row - 5):base_row] *= 0.45
+    gains = np.array(gains_bgr)
+    pan *= gains.astype(np.float32)
+    out = np.empty((h, wp, 3), dtype=np.uint8)
+    np.copyto(out, np.clip(np.rint(pan), 0, 255), casting="unsafe")
+    for item in clutter_items(background):  # on the 8-bit image: OpenCV anti-aliases only 8-bit
+        _draw_clutter(out, item, config, wp, gains)
+    return out
+
+
+@functools.lru_cache(maxsize=4)
+def _noise_tiles(seed: int, sigma: float, config: CameraConfig) -> tuple[Image, Image]:
+    """Gaussian noise of σ ``sigma`` on a tile twice the image in each direction, split into its
+    positive and negative parts (added and subtracted with 8-bit saturation per frame)."""
+    rng = np.random.default_rng([seed, 0x401CE])
+    tile = np.round(rng.normal(0.0, sigma, (2 * config.height, 2 * config.width, 3)))
+    return (np.clip(tile, 0, 255).astype(np.uint8), np.clip(-tile, 0, 255).astype(np.uint8))
+
+
+# --- renderer ---------------------------------------------------------------------------------
+
+
+class Renderer:
+    """Renders one world through one camera. Build once (it pre-renders the background panorama
+    and the noise tile, ≈ 0.1 s), then call :meth:`render` per frame (≈ 1 ms at 640×480)."""
+
+    def __init__(
+        self, world: World, palette: Sequence[ColourRange], config: CameraConfig = CameraConfig()
+    ) -> None:
+        self.world = world
+        self.config = config
+        by_name = {c.name: c for c in palette}
+        gains = np.array(world.conditions.channel_gains_bgr())
+        self._colours: list[tuple[float, float, float]] = []
+        for i, m in enumerate(world.marks):
+            if m.colour not in by_name:
+                raise ValueError(
+                    f"marks[{i}]: colour {m.colour!r} is not in the palette "
+                    f"({', '.join(sorted(by_name))}); check the world with check_against_palette"
+                )
+            bgr = np.minimum(np.array(mark_bgr(by_name[m.colour])) * gains, 255.0)
+            self._colours.append((float(bgr[0]), float(bgr[1]), float(bgr[2])))
+        self._geometry = _MarkGeometry(world)
+        pan = _panorama(world.background, world.conditions.channel_gains_bgr(), config)
+        self._wp = pan.shape[1]
+        self._blur = world.conditions.blur_sigma_px
+        # Blur kernel radius; the panorama is padded by it on both sides so that any window
+        # the blur needs exists around the image.
+        self._k = math.ceil(3.0 * self._blur) if self._blur > 0 else 0
+        self._margin = self._k + 2
+        pad, w = self._margin, config.width
+        columns = np.arange(-pad, self._wp + w + pad) % self._wp  # wraps even if w > Wp
+        self._pan: Image = np.ascontiguousarray(pan[:, columns])
+        # With blur, the background is blurred once here and only the marks' surroundings are
+        # blurred per frame (from the sharp panorama, so the result is the same as blurring
+        # the whole frame, but cheaper).
+        self._pan_blurred = self._pan
+        if self._blur > 0:
+            self._pan_blurred = np.asarray(
+                cv2.GaussianBlur(self._pan, self._ksize, self._blur), dtype=np.uint8)
+        sigma = world.conditions.noise_sigma
+        self._noise = _noise_tiles(world.background.seed, sigma, config) if sigma > 0 else None
+
+    @property
+    def _ksize(self) -> tuple[int, int]:
+        return (2 * self._k + 1, 2 * self._k + 1)
+
+    def project(self, pose: Pose) -> list[ProjectedMark]:
+        """The marks in view from ``pose``, far to near."""
+        return self._geometry.project(pose, self.config)
+
+    def _column(self, pose: Pose) -> int:
+        """Column of the padded panorama where the image's column 0 starts."""
+        c0 = round(-pose.theta * self._wp / (2.0 * math.pi) - self.config.cx) % self._wp
+        return int(c0) + self._margin
+
+    def background(self, pose: Pose) -> Image:
+        """The background seen from ``pose`` (a view into the panorama: do not modify)."""
+        c0 = self._column(pose)
+        return self._pan_blurred[:, c0:c0 + self.config.width]
+
+    def _draw(self, img: Image, marks: list[ProjectedMark], du: float, dv: float) -> None:
+        for pm in marks:
+            poly = _shrink(pm.polygon, AA_EDGE_BIAS_PX)
+            if du or dv:
+                poly = poly - (du, dv)
+            pts = np.round(poly * (1 << _SHIFT)).astype(np.int32)
+            cv2.fillPoly(img, [pts], self._colours[pm.index], cv2.LINE_AA, _SHIFT)
+
+    def render(self, pose: Pose, rng: np.random.Generator | None = None) -> Image:
+        """One BGR frame from ``pose``. ``rng`` picks the noise; ``None`` renders noise-free."""
+        cfg = self.config
+        h, w = cfg.height, cfg.width
+        img = np.empty((h, w, 3), dtype=np.uint8)
+        c0 = self._column(pose)
+        np.copyto(img, self._pan_blurred[:, c0:c0 + w])
+        marks = self._geometry.project(pose, cfg)
+        if marks and self._k == 0:
+            self._draw(img, marks, 0.0, 0.0)
+        elif marks:
+            # The pixels the blurred marks can reach: their box plus the kernel (and 1 px of
+            # anti-aliasing); the blur there needs the sharp scene one kernel further out.
+            boxes = np.array([pm.bbox for pm in marks])
+            reach = self._k + 2
+            u0 = max(0, math.floor(boxes[:, 0].min()) - reach)
+            v0 = max(0, math.floor(boxes[:, 1].min()) - reach)
+            u1 = min(w - 1, math.ceil(boxes[:, 2].max()) + reach)
+            v1 = min(h - 1, math.ceil(boxes[:, 3].max()) + reach)
+            k = self._k
+            su0, su1 = u0 - k, u1 + k
+            sv0, sv1 = max(0, v0 - k), min(h - 1, v1 + k)
+            roi = self._pan[sv0:sv1 + 1, c0 + su0:c0 + su1 + 1].copy()
+            self._draw(roi, marks, float(su0), float(sv0))
+            cv2.GaussianBlur(roi, self._ksize, self._blur, dst=roi)
+            img[v0:v1 + 1, u0:u1 + 1] = roi[v0 - sv0:v1 - sv0 + 1, k:k + u1 - u0 + 1]
+        if self._noise is not None and rng is not None:
+            pos, neg = self._noise
+            oy = int(rng.integers(0, h + 1))
+            ox = int(rng.integers(0, w + 1))
+            cv2.add(img, pos[oy:oy + h, ox:ox + w], dst=img)
+            cv2.subtract(img, neg[oy:oy + h, ox:ox + w], dst=img)
+        return img
+
+
+@functools.lru_cache(maxsize=8)
+def _cached_renderer(
+    world: World, palette: tuple[ColourRange, ...], config: CameraConfig
+) -> Renderer:
+    return Renderer(world, palette, config)
+
+
+def render(
+    world: World,
+    pose: Pose,
+    camera_config: CameraConfig,
+    palette: Sequence[ColourRange],
+    rng: np.random.Generator | None,
+) -> Image:
+    """One frame of ``world`` seen from ``pose`` (a pure function of its arguments and the rng's
+    state). The per-world background is cached, so repeated calls cost one frame each."""
+    return _cached_renderer(world, tuple(palette), camera_config).render(pose, rng)
+
+
+class SimCamera:
+    """The simulator's camera as a :class:`~marknav.vision.sources.FrameSource`.
+
+    Each :meth:`read` renders the world from ``pose_fn()`` at ``clock.now()``; with
+    ``latency_frames`` = L it delivers the frame rendered L reads earlier (the first frame until
+    L frames have been taken). ``seed`` fixes the noise. ``close`` is idempotent; a closed
+    camera reads ``None``.
+    """
+
+    def __init__(
+        self,
+        world: World,
+        palette: Sequence[ColourRange],
+        *,
+        pose_fn: Callable[[], Pose],
+        clock: Clock,
+        config: CameraConfig = CameraConfig(),
+        seed: int = 0,
+        latency_frames: int | None = None,
+        name: str = "sim",
+    ) -> None:
+        latency = world.conditions.latency_frames if latency_frames is None else latency_frames
+        if latency < 0:
+            raise ValueError(f"latency_frames must be ≥ 0, got {latency}")
+        self.name = name
+        self.latency_frames = latency
+        self.renderer = Renderer(world, palette, config)
+        self._pose_fn = pose_fn
+        self._clock = clock
+        self._rng = np.random.default_rng([int(seed), 0xCA3E7A])
+        self._buffer: deque[Frame] = deque(maxlen=latency + 1)
+        self._index = 0
+        self._closed = False
+
+    @property
+    def config(self) -> CameraConfig:
+        return self.renderer.config
+
+    def read(self) -> Frame | None:
+        if self._closed:
+            return None
+        image = self.renderer.render(self._pose_fn(), self._rng)
+        self._buffer.append(Frame(image=image, t=self._clock.now(), index=self._index))
+        self._index += 1
+        return self._buffer[0]
+
+    def close(self) -> None:
+        self._closed = True
+        self._buffer.clear()
+
+    def __enter__(self) -> SimCamera:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,661 @@
+"""A byte-level simulated iRobot Create 1 / Create 2 that speaks the Open Interface.
+
+Bytes from the host go in with :meth:`SimulatedCreate.write`; bytes the robot sends come out of
+:meth:`SimulatedCreate.read`. In between, the robot behaves as the OI specifications describe:
+
+- OI modes (spec "Open Interface Modes"): Off until Start (128); Start → Passive; Safe (131,
+  also Control 130) and Full (132). Drive, LEDs and Play are ignored outside Safe/Full; in Safe
+  mode a wheel drop, or a cliff while driving forward (or spinning / backing on a radius under
+  one robot radius), stops the wheels and drops to Passive. Bumps stop nothing.
+- Commands are framed with :func:`marknav.drivers.oi.command_length`: a partial command waits for
+  its remaining data bytes, as on the robot. Unknown opcodes are skipped one byte at a time.
+- Sensors (142), Query List (149) and Stream (148, a frame every 15 ms of simulated time, at
+  absolute 15 ms ticks) answer every single and group packet of the model. Distance (19) and
+  angle (20) are the motion since they were last sent (the fraction not yet reported is kept,
+  so nothing is lost); encoder counts (43/44, Create 2) are cumulative signed 16-bit and wrap.
+- Motion: the commanded wheel speeds turn the wheels, which is what the encoders, distance and
+  angle report; the ground moves by the commanded speed times ``left_scale``/``right_scale``
+  (wheel mismatch) and an optional random slip, integrated with
+  :func:`marknav.planning.kinematics.integrate_pose`. Odometry therefore cannot see slip, as on
+  the real robot.
+
+Time is the simulator's own: :meth:`advance_to`, :meth:`step` (an injected
+:class:`~marknav.clock.ManualClock`) or :meth:`sync` (catch up to the injected clock, e.g. a
+:class:`~marknav.clock.MonotonicClock` for real time), so runs are deterministic and can go
+faster than real time. All public methods are thread-safe.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import random
+from collections import deque
+from collections.abc import Sequence
+from dataclasses import dataclass
+from threading import Condition, RLock
+
+from marknav.clock import Clock, ManualClock
+from marknav.drivers import oi
+from marknav.drivers.odometry import MM_PER_COUNT
+from marknav.drivers.oi import Opcode
+from marknav.drivers.packets import (
+    BumpsAndWheelDrops,
+    Model,
+    OIMode,
+    Overcurrents,
+    encode_packet,
+    is_packet_id,
+    member_ids,
+)
+from marknav.planning.kinematics import Pose, WheelSpeeds, integrate_pose
+
+__all__ = ["CommandRecord", "LedState", "SimulatedCreate"]
+
+log = logging.getLogger(__name__)
+
+_ROBOT_RADIUS_MM = 170.0
+_BANNER = (b"\r\nmarknav simulated Roomba 600 (Create 2)\r\n"
+           b"r3_robot/tags/release-3.4.1 (simulated)\r\nbattery-current-zero 0\r\n")
+
+
+@dataclass(frozen=True)
+class LedState:
+    """The last LEDs (139) command: LED bits, power LED colour and intensity."""
+
+    bits: int
+    power_color: int
+    power_intensity: int
+
+
+@dataclass(frozen=True)
+class CommandRecord:
+    """One command the simulated robot executed (or ignored, ``accepted=False``)."""
+
+    t: float
+    opcode: int
+    data: bytes
+    accepted: bool
+
+
+class SimulatedCreate:
+    """A simulated Create speaking the OI byte by byte (see the module docstring).
+
+    Args:
+        model: ``Model.CREATE1`` or ``Model.CREATE2`` (or its name).
+        clock: the clock :meth:`sync` catches up to, and :meth:`step` advances when it is a
+            ``ManualClock``. Default: a new ``ManualClock`` at 0.
+        pose: the true start pose (default (0, 0) facing +y).
+        wheel_base_mm: default: the model's (258 Create 1, 235 Create 2).
+        left_scale, right_scale: ground speed / commanded speed per wheel (wheel mismatch).
+        slip_std: standard deviation of an extra random relative slip per wheel and 15 ms tick.
+        seed: seed of the slip noise.
+        max_output_bytes: bytes kept for the host before the oldest are dropped (a UART overrun).
+    """
+
+    def __init__(
+        self,
+        *,
+        model: Model | str = Model.CREATE2,
+        clock: Clock | None = None,
+        pose: Pose | None = None,
+        wheel_base_mm: float | None = None,
+        left_scale: float = 1.0,
+        right_scale: float = 1.0,
+        slip_std: float = 0.0,
+        seed: int | None = None,
+        max_output_bytes: int = 1 << 16,
+    ) -> None:
+        self.model = Model.parse(model)
+        self.clock: Clock = clock if clock is not None else ManualClock()
+        self.wheel_base_mm = float(wheel_base_mm or self.model.wheel_base_mm)
+        if not self.wheel_base_mm > 0:
+            raise ValueError(f"wheel_base_mm must be positive, got {wheel_base_mm}")
+        self.left_scale = float(left_scale)
+        self.right_scale = float(right_scale)
+        if slip_std < 0:
+            raise ValueError(f"slip_std must be >= 0, got {slip_std}")
+        self.slip_std = float(slip_std)
+        self._rng = random.Random(seed)
+        self._lock = RLock()
+        self._output_ready = Condition(self._lock)
+        self._max_output = int(max_output_bytes)
+
+        self._t0 = self.clock.now()
+        self._time = self._t0
+        self._tick = 1  # index of the next 15 ms tick after _t0
+        self._pose = pose or Pose(0.0, 0.0, math.pi / 2)
+        self._mode = OIMode.OFF
+        self._in = bytearray()
+        self._out = bytearray()
+        self.dropped_output_bytes = 0
+        self._unplugged = False
+
+        # actuators
+        self._cmd_left = 0.0  # commanded wheel speeds, mm/s
+        self._cmd_right = 0.0
+        self._req_velocity = 0
+        self._req_radius = 0
+        self._req_left = 0
+        self._req_right = 0
+        self.leds: LedState | None = None
+        self.songs: dict[int, tuple[tuple[int, int], ...]] = {}
+        self.played: list[tuple[float, int]] = []
+        self._song_number = 0
+        self._song_end = -math.inf
+        self.baudrate = self.model.default_baudrate
+        self._stream_ids: tuple[int, ...] = ()
+        self._stream_active = False
+        self.frames_sent = 0
+        self.commands: deque[CommandRecord] = deque(maxlen=4096)
+
+        # sensors set by the world
+        self._bumps = BumpsAndWheelDrops()
+        self._cliffs = (False, False, False, False)
+        self._wall = False
+        self._virtual_wall = False
+        self._light_bumper = 0
+        self._overcurrents = Overcurrents()
+        self.voltage_mv = 15200 if self.model is Model.CREATE2 else 14800
+        self.battery_temp_c = 24
+        self.capacity_mah = 2696 if self.model is Model.CREATE2 else 3000
+        self._charge_mah = 2500.0
+
+        # accumulators (wheel travel as the encoders see it)
+        self._dist_acc = 0.0
+        self._angle_acc = 0.0
+        self._enc_left = 0.0
+        self._enc_right = 0.0
+        self.odometer_mm = 0.0  # true path length of the centre
+
+    # --- time ---------------------------------------------------------------------------------
+
+    @property
+    def time(self) -> float:
+        """The simulator's current time (seconds, the clock's scale)."""
+        with self._lock:
+            return self._time
+
+    def now(self) -> float:
+        """Same as :attr:`time`, so the simulator can serve as a :class:`~marknav.clock.Clock`."""
+        return self.time
+
+    def advance_to(self, t: float) -> None:
+        """Simulate up to time ``t``: integrate motion and emit the stream frames due."""
+        with self._lock:
+            if t < self._time:
+                return  # a clock read slightly earlier by another thread: nothing to do
+            emitted = False
+            while True:
+                tick_t = self._t0 + self._tick * oi.STREAM_PERIOD_S
+                if tick_t > t:
+                    self._integrate(t - self._time)
+                    self._time = t
+                    break
+                self._integrate(tick_t - self._time)
+                self._time = tick_t
+                self._tick += 1
+                emitted |= self._on_tick()
+            if emitted:
+                self._output_ready.notify_all()
+
+    def step(self, dt: float) -> None:
+        """Advance the injected ``ManualClock`` by ``dt`` and simulate up to it."""
+        advance = getattr(self.clock, "advance", None)
+        if advance is None:
+            raise TypeError("step() needs a ManualClock-like clock with advance(dt); "
+                            "use advance_to(t) or sync()")
+        advance(dt)
+        self.sync()
+
+    def sync(self) -> None:
+        """Catch up to the injected clock's ``now()``."""
+        self.advance_to(self.clock.now())
+
+    def next_tick_time(self) -> float:
+        """Time of the next 15 ms sensor update (and stream frame, if streaming)."""
+        with self._lock:
+            return self._t0 + self._tick * oi.STREAM_PERIOD_S
+
+    # --- byte interface -----------------------------------------------------------------------
+
+    def write(self, data: bytes | bytearray) -> int:
+        """Bytes from the host, executed at the current simulated time. Returns ``len(data)``."""
+        with self._lock:
+            self._in += data
+            self._process_input()
+            if self._out:
+                self._output_ready.notify_all()
+            return len(data)
+
+    def read(self, size: int | None = None) -> bytes:
+        """Up to ``size`` (default all) bytes the robot has sent and nobody has read yet."""
+        with self._lock:
+            n = len(self._out) if size is None else min(size, len(self._out))
+            data = bytes(self._out[:n])
+            del self._out[:n]
+            return data
+
+    @property
+    def in_waiting(self) -> int:
+        """Bytes waiting in :meth:`read`."""
+        with self._lock:
+            return len(self._out)
+
+    def clear_output(self) -> None:
+        """Discard unread output (the host flushed its input buffer)."""
+        with self._lock:
+            self._out.clear()
+
+    def wait_output(self, timeout: float) -> bool:
+        """Block up to ``timeout`` wall seconds until output is available; True if there is."""
+        with self._lock:
+            if not self._out:
+                self._output_ready.wait(timeout)
+            return bool(self._out)
+
+    def unplug(self) -> None:
+        """Simulate a pulled cable: the pyserial adapters raise ``SerialException`` from now on."""
+        with self._lock:
+            self._unplugged = True
+            self._output_ready.notify_all()
+
+    @property
+    def unplugged(self) -> bool:
+        return self._unplugged
+
+    # --- world interface ----------------------------------------------------------------------
+
+    def set_bump(self, left: bool, right: bool) -> None:
+        """Bumper contact (packet 7 bits 1 and 0). Stops nothing, as on the robot."""
+        with self._lock:
+            self._bumps = BumpsAndWheelDrops(
+                bool(right), bool(left), self._bumps.wheel_drop_right,
+                self._bumps.wheel_drop_left, self._bumps.caster_drop)
+
+    def set_wheel_drop(self, *, left: bool = False, right: bool = False,
+                       caster: bool = False) -> None:
+        """Wheel drops (packet 7 bits 3, 2, and 4 = caster on Create 1; ignored on Create 2)."""
+        with self._lock:
+            self._bumps = BumpsAndWheelDrops(
+                self._bumps.bump_right, self._bumps.bump_left, bool(right), bool(left),
+                bool(caster) and self.model is Model.CREATE1)
+            self._safety_check()
+
+    def set_cliff(self, *, left: bool = False, front_left: bool = False,
+                  front_right: bool = False, right: bool = False) -> None:
+        """Cliff sensors (packets 9–12)."""
+        with self._lock:
+            self._cliffs = (bool(left), bool(front_left), bool(front_right), bool(right))
+            self._safety_check()
+
+    def set_wall(self, wall: bool) -> None:
+        """Wall sensor (packet 8; on Create 2 also light bumper right)."""
+        with self._lock:
+            self._wall = bool(wall)
+
+    def set_virtual_wall(self, seen: bool) -> None:
+        with self._lock:
+            self._virtual_wall = bool(seen)
+
+    def set_light_bumper(self, bits: int) -> None:
+        """Light bumper bits (packet 45, Create 2): bit0 left … bit5 right."""
+        if not 0 <= bits <= 63:
+            raise ValueError(f"light bumper bits must be in 0..63, got {bits}")
+        with self._lock:
+            self._light_bumper = bits
+
+    def set_overcurrent(self, *, left_wheel: bool = False, right_wheel: bool = False) -> None:
+        """Wheel overcurrent flags (packet 14)."""
+        with self._lock:
+            self._overcurrents = Overcurrents(left_wheel=bool(left_wheel),
+                                              right_wheel=bool(right_wheel))
+
+    def set_pose(self, pose: Pose) -> None:
+        """Move the robot (the world resolving a collision, a test placing it)."""
+        with self._lock:
+            self._pose = pose
+
+    # --- state for the world and tests --------------------------------------------------------
+
+    @property
+    def pose(self) -> Pose:
+        """The true pose (ground truth, including mismatch and slip)."""
+        with self._lock:
+            return self._pose
+
+    @property
+    def mode(self) -> OIMode:
+        with self._lock:
+            return self._mode
+
+    @property
+    def wheel_speeds(self) -> WheelSpeeds:
+        """The wheel speeds the robot is applying (zero outside Safe/Full), mm/s."""
+        with self._lock:
+            return WheelSpeeds(left=self._cmd_left, right=self._cmd_right)
+
+    @property
+    def stream_ids(self) -> tuple[int, ...]:
+        with self._lock:
+            return self._stream_ids
+
+    @property
+    def streaming(self) -> bool:
+        with self._lock:
+            return self._stream_active and bool(self._stream_ids)
+
+    @property
+    def encoder_counts(self) -> tuple[int, int]:
+        """(left, right) encoder counts as packets 43/44 report them."""
+        with self._lock:
+            return (_wrap16(self._enc_left), _wrap16(self._enc_right))
+
+    @property
+    def song_playing(self) -> bool:
+        with self._lock:
+            return self._time < self._song_end
+
+    # --- internals: motion --------------------------------------------------------------------
+
+    def _integrate(self, dt: float) -> None:
+        if dt <= 0:
+            return
+        vl, vr = self._cmd_left, self._cmd_right
+        if vl == 0.0 and vr == 0.0:
+            return
+        # the wheels turn at the commanded speed: that is what encoders, distance, angle see
+        dl, dr = vl * dt, vr * dt
+        self._enc_left += dl / MM_PER_COUNT
+        self._enc_right += dr / MM_PER_COUNT
+        self._dist_acc += 0.5 * (dl + dr)
+        self._angle_acc += math.degrees((dr - dl) / self.wheel_base_mm)
+        # the ground moves by the wheel travel times the per-wheel scale (mismatch, slip)
+        gl, gr = vl * self.left_scale, vr * self.right_scale
+        if self.slip_std > 0.0:
+            gl *= 1.0 + self._rng.gauss(0.0, self.slip_std)
+            gr *= 1.0 + self._rng.gauss(0.0, self.slip_std)
+        self._pose = integrate_pose(self._pose, left=gl, right=gr, dt=dt,
+                                    wheel_base_mm=self.wheel_base_mm)
+        self.odometer_mm += abs(0.5 * (gl + gr)) * dt
+        self._charge_mah = max(0.0, self._charge_mah + self._current_ma() * dt / 3600.0)
+
+    def _current_ma(self) -> int:
+        return -int(150 + 0.6 * (abs(self._cmd_left) + abs(self._cmd_right)))
+
+    def _set_wheels(self, left: float, right: float) -> None:
+        self._cmd_left, self._cmd_right = float(left), float(right)
+        self._safety_check()
+
+    def _stop_wheels(self) -> None:
+        self._cmd_left = self._cmd_right = 0.0
+
+    def _safety_check(self) -> None:
+        """Safe mode's own reactions (spec "Safe Mode"): wheel drop, or cliff while moving
+        forward / turning on a small radius backward → stop and revert to Passive."""
+        if self._mode is not OIMode.SAFE:
+            return
+        b = self._bumps
+        dropped = b.wheel_drop_left or b.wheel_drop_right or b.caster_drop
+        cliff = any(self._cliffs)
+        vl, vr = self._cmd_left, self._cmd_right
+        moving_risky = False
+        if cliff and (vl or vr):
+            v = 0.5 * (vl + vr)
+            if v > 0:
+                moving_risky = True
+            elif vr != vl:
+                radius = 0.5 * self.wheel_base_mm * (vr + vl) / (vr - vl)
+                moving_risky = abs(radius) < _ROBOT_RADIUS_MM
+        if dropped or moving_risky:
+            log.info("safe mode: %s, stopping and reverting to passive",
+                     "wheel drop" if dropped else "cliff")
+            self._stop_wheels()
+            self._mode = OIMode.PASSIVE
+
+    def _on_tick(self) -> bool:
+        """One 15 ms sensor update; returns True if a stream frame was emitted."""
+        self._safety_check()
+        if self._stream_active and self._stream_ids:
+            payload = b"".join(bytes([pid]) + self._packet_bytes(pid)
+                               for pid in self._stream_ids)
+            self._emit(oi.stream_frame(payload))
+            self.frames_sent += 1
+            return True
+        return False
+
+    def _emit(self, data: bytes) -> None:
+        self._out += data
+        excess = len(self._out) - self._max_output
+        if excess > 0:
+            if self.dropped_output_bytes == 0:
+                log.warning("nobody reads the simulated robot: dropping old output")
+            del self._out[:excess]
+            self.dropped_output_bytes += excess
+
+    # --- internals: sensors -------------------------------------------------------------------
+
+    def _take_accumulator(self, name: str) -> int:
+        acc = getattr(self, name)
+        report = max(-32768, min(32767, math.trunc(acc)))
+        setattr(self, name, acc - report)
+        return report
+
+    def _raw(self, pid: int) -> int:
+        c1 = self.model is Model.CREATE1
+        vl, vr = self._cmd_left, self._cmd_right
+        if pid == 7:
+            return self._bumps.to_raw()
+        if pid == 8:
+            return int(self._wall)
+        if 9 <= pid <= 12:
+            return int(self._cliffs[pid - 9])
+        if pid == 13:
+            return int(self._virtual_wall)
+        if pid == 14:
+            return self._overcurrents.to_raw(self.model)
+        if pid == 17:
+            return 255 if c1 else 0
+        if pid == 19:
+            return self._take_accumulator("_dist_acc")
+        if pid == 20:
+            return self._take_accumulator("_angle_acc")
+        if pid == 22:
+            return self.voltage_mv
+        if pid == 23:
+            return self._current_ma()
+        if pid == 24:
+            return self.battery_temp_c
+        if pid == 25:
+            return int(self._charge_mah)
+        if pid == 26:
+            return self.capacity_mah
+        if pid == 27:
+            return 300 if self._wall else 0
+        if 28 <= pid <= 31:
+            return 20 if self._cliffs[pid - 28] else 2400
+        if pid == 32:
+            return 16 if c1 else 0  # Create 1: baud-rate-change pin high (its default)
+        if pid == 35:
+            return int(self._mode)
+        if pid == 36:
+            return self._song_number
+        if pid == 37:
+            return int(self._time < self._song_end)
+        if pid == 38:
+            return len(self._stream_ids)
+        if pid == 39:
+            return self._req_velocity
+        if pid == 40:
+            return self._req_radius
+        if pid == 41:
+            return self._req_right
+        if pid == 42:
+            return self._req_left
+        if pid == 43:
+            return _wrap16(self._enc_left)
+        if pid == 44:
+            return _wrap16(self._enc_right)
+        if pid == 45:
+            return self._light_bumper | (32 if self._wall else 0)
+        if 46 <= pid <= 51:
+            return 1200 if self._light_bumper >> (pid - 46) & 1 else 8
+        if pid == 54:
+            return int(0.4 * abs(vl))
+        if pid == 55:
+            return int(0.4 * abs(vr))
+        if pid == 58:
+            return int(vl + vr > 0 and not self._bumps.bump_left and not self._bumps.bump_right)
+        return 0  # unused bytes, dirt detect, buttons, charging, IR left/right, brushes
+
+    def _packet_bytes(self, pid: int) -> bytes:
+        raw = {m: self._raw(m) for m in member_ids(self.model, pid)}
+        return encode_packet(self.model, pid, raw)
+
+    # --- internals: commands ------------------------------------------------------------------
+
+    def _process_input(self) -> None:
+        buf = self._in
+        while buf:
+            if self._mode is OIMode.OFF and buf[0] != Opcode.START:
+                # an Off OI only listens for Start; everything else is lost
+                del buf[:1]
+                continue
+            try:
+                n = oi.command_length(self.model, buf)
+            except ValueError:
+                log.debug("simulated %s: skipping unknown byte %d", self.model.value, buf[0])
+                del buf[:1]
+                continue
+            if n is None or len(buf) < n:
+                return  # wait for the rest of the command, as the robot does
+            cmd = bytes(buf[:n])
+            del buf[:n]
+            accepted = self._execute(cmd[0], cmd[1:])
+            self.commands.append(CommandRecord(self._time, cmd[0], cmd[1:], accepted))
+
+    def _execute(self, op: int, data: bytes) -> bool:
+        mode = self._mode
+        active = mode in (OIMode.SAFE, OIMode.FULL)
+        if op == Opcode.START:
+            self._stop_wheels()
+            self._mode = OIMode.PASSIVE
+        elif op in (Opcode.SAFE, Opcode.CONTROL):
+            self._mode = OIMode.SAFE
+            if self.model is Model.CREATE2:
+                self.leds = LedState(0, 0, 0)  # Create 2 spec: Safe turns off all LEDs
+            self._safety_check()
+        elif op == Opcode.FULL:
+            self._mode = OIMode.FULL
+        elif op == Opcode.BAUD:
+            rates = {code: rate for rate, code in oi.BAUD_CODES.items()}
+            if data[0] not in rates:
+                return False
+            # Recorded only: a pty or socket has no line speed to change.
+            self.baudrate = rates[data[0]]
+        elif op in (Opcode.RESET, Opcode.STOP):
+            self._stop_wheels()
+            self._mode = OIMode.OFF
+            self._stream_active = False
+            self._stream_ids = ()
+            if op == Opcode.RESET:
+                self._emit(_BANNER)
+        elif op in (Opcode.POWER, Opcode.SPOT, Opcode.CLEAN, Opcode.MAX, Opcode.SEEK_DOCK):
+            self._stop_wheels()  # cleaning/demo modes are not simulated: they just end control
+            self._mode = OIMode.PASSIVE
+        elif op == Opcode.DRIVE:
+            if not active:
+                return False
+            self._drive(int.from_bytes(data[0:2], "big", signed=True),
+                        int.from_bytes(data[2:4], "big", signed=False))
+        elif op == Opcode.DRIVE_DIRECT:
+            if not active:
+                return False
+            right = int.from_bytes(data[0:2], "big", signed=True)
+            left = int.from_bytes(data[2:4], "big", signed=True)
+            self._req_right, self._req_left = _clamp(right, 500), _clamp(left, 500)
+            self._set_wheels(self._req_left, self._req_right)
+        elif op == Opcode.DRIVE_PWM:
+            if not active:
+                return False
+            right = _clamp(int.from_bytes(data[0:2], "big", signed=True), 255)
+            left = _clamp(int.from_bytes(data[2:4], "big", signed=True), 255)
+            # modelled as speed proportional to duty cycle, full duty = 500 mm/s
+            self._set_wheels(left * 500.0 / 255.0, right * 500.0 / 255.0)
+        elif op == Opcode.LEDS:
+            if not active:
+                return False
+            self.leds = LedState(data[0], data[1], data[2])
+        elif op == Opcode.SONG:
+            return self._song(data)
+        elif op == Opcode.PLAY:
+            return active and self._play(data[0])
+        elif op == Opcode.SENSORS:
+            if not is_packet_id(self.model, data[0]):
+                return False
+            self._emit(self._packet_bytes(data[0]))
+        elif op == Opcode.QUERY_LIST:
+            queried = list(data[1:])
+            if not all(is_packet_id(self.model, i) for i in queried):
+                return False
+            self._emit(b"".join(self._packet_bytes(i) for i in queried))
+        elif op == Opcode.STREAM:
+            ids = tuple(data[1:])
+            if not all(is_packet_id(self.model, i) for i in ids):
+                return False
+            self._stream_ids = ids
+            self._stream_active = bool(ids)
+        elif op == Opcode.PAUSE_RESUME_STREAM:
+            self._stream_active = bool(data[0])
+        else:
+            log.debug("simulated %s: opcode %d accepted, not simulated", self.model.value, op)
+        return True
+
+    def _drive(self, velocity: int, radius_raw: int) -> None:
+        v = _clamp(velocity, 500)
+        radius = radius_raw - 0x10000 if radius_raw >= 0x8000 else radius_raw
+        self._req_velocity, self._req_radius = v, radius
+        half = 0.5 * self.wheel_base_mm
+        if radius_raw in (0x8000, 0x7FFF) or radius == 0:
+            left = right = float(v)
+        elif radius == -1:
+            left, right = float(v), float(-v)
+        elif radius == 1:
+            left, right = float(-v), float(v)
+        else:
+            r = float(_clamp(radius, 2000))
+            left, right = v * (r - half) / r, v * (r + half) / r
+            peak = max(abs(left), abs(right))
+            if peak > 500:
+                left, right = left * 500 / peak, right * 500 / peak
+        self._set_wheels(left, right)
+
+    def _song(self, data: bytes) -> bool:
+        number, length = data[0], data[1]
+        limit = 15 if self.model is Model.CREATE1 else 4
+        if number > limit or not 1 <= length <= 16:
+            return False
+        notes = tuple((data[2 + 2 * i], data[3 + 2 * i]) for i in range(length))
+        self.songs[number] = notes
+        return True
+
+    def _play(self, number: int) -> bool:
+        if number not in self.songs or self._time < self._song_end:
+            return False
+        self._song_number = number
+        self._song_end = self._time + sum(d for _, d in self.songs[number]) / 64.0
+        self.played.append((self._time, number))
+        return True
+
+    def stream_frame_size(self, ids: Sequence[int] | None = None) -> int:
+        """Bytes per stream frame for ``ids`` (default: the current stream)."""
+        ids = self._stream_ids if ids is None else tuple(ids)
+        return 3 + oi.stream_ids_size(self.model, ids)
+
+
+def _clamp(value: int, limit: int) -> int:
+    return max(-limit, min(limit, value))
+
+
+def _wrap16(counts: float) -> int:
+    return (round(counts) + 0x8000) % 0x10000 - 0x8000

@@ -1,0 +1,807 @@
+"""The simulated world: marks, robot start, walls, conditions; contacts and pass measures.
+
+Implements the world part of issue 5 (the simulator), in the frames of ``docs/architecture.md``:
+world x east, y north, heading θ counter-clockwise from +x, millimetres; degrees only in the file
+(keys ending in ``_deg``).
+
+- A **world file** (YAML, validated by the pydantic models below through :mod:`marknav.yamlio`,
+  unknown keys rejected everywhere) lists the marks, the robot's start pose, walls and boxes,
+  image/wheel conditions and the background seed. :func:`load_world` reads one;
+  :func:`check_against_palette` checks its colours against a mission's palette.
+- :func:`generate_world` builds a world from a mission's route when no file is given: marks in
+  route order along +y, spacing and lateral offsets within the module constants below, so that
+  every mark can be bypassed with the mission's clearance and the next one is in view (or a short
+  search turn away) from where the previous bypass ends. Deterministic for a seed.
+- **Contacts**: the robot is a disc (Create: 330 mm); a mark is a thin disc standing on the floor,
+  treated in the top view as a circle of its radius around its centre (conservative); walls are
+  segments, boxes rectangles. :func:`contacts` gives each touching obstacle with the contact angle
+  relative to the heading and the bumper bits it presses (left half of the front, right half, both
+  when nearly straight ahead; no bit behind the bumper's arc).
+- **Run-report measures from ground truth**: :func:`min_clearance_mm` (robot centre to mark centre,
+  minimum along the path, between samples too) and :func:`passed_on` — which side of the mark the
+  robot was on when it crossed the line through the mark perpendicular to its direction of travel:
+  ``"left"`` when the mark was on the robot's right (the architecture's pass-side words).
+
+A mark's ``yaw_deg`` turns the disc's face about the vertical: 0 means its normal points along −y
+(toward a robot at the origin facing +y); positive turns it counter-clockwise seen from above. Yaw
+is absolute (world frame), not relative to the robot's start heading.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, field_validator, model_validator
+
+from marknav.errors import InputError, InputErrors
+from marknav.planning.kinematics import Pose, wrap_angle
+from marknav.vision.palette import ColourRange
+from marknav.yamlio import Position, load_yaml_file, parse_model
+
+__all__ = [
+    "BOTH_BUMPS_HALF_ANGLE_DEG",
+    "BUMPER_HALF_ARC_DEG",
+    "CAST_GAINS_BGR",
+    "CREATE_RADIUS_MM",
+    "DEFAULT_HALF_FOV_DEG",
+    "DEFAULT_MARK_RADIUS_MM",
+    "Background",
+    "Box",
+    "Bumps",
+    "ClutterItem",
+    "Conditions",
+    "Contact",
+    "Crossing",
+    "MarkSpec",
+    "RobotStart",
+    "Wall",
+    "World",
+    "bumps",
+    "check_against_palette",
+    "clutter_items",
+    "contacts",
+    "generate_world",
+    "load_world",
+    "min_clearance_mm",
+    "pass_crossings",
+    "passed_on",
+    "push_out",
+    "random_conditions",
+]
+
+#: A mark's radius when neither the world file nor the caller gives one (the brief's example).
+DEFAULT_MARK_RADIUS_MM = 100.0
+#: The Create is a 330 mm disc.
+CREATE_RADIUS_MM = 165.0
+#: Half the horizontal field of view of the default camera (640 px wide, f = 590 px).
+DEFAULT_HALF_FOV_DEG = math.degrees(math.atan(320.0 / 590.0))
+
+# --- bumper model -----------------------------------------------------------------------------
+#: The bumper covers the front half of the robot: contacts within ±90° of the heading press it.
+BUMPER_HALF_ARC_DEG = 90.0
+#: A contact within ±10° of straight ahead presses both halves.
+BOTH_BUMPS_HALF_ANGLE_DEG = 10.0
+
+# --- colour casts -----------------------------------------------------------------------------
+#: Per-channel gains (B, G, R) of the named casts: warm = incandescent-like, cool = shade-like.
+CAST_GAINS_BGR: dict[str, tuple[float, float, float]] = {
+    "none": (1.0, 1.0, 1.0),
+    "warm": (0.80, 1.0, 1.20),
+    "cool": (1.20, 1.0, 0.80),
+}
+
+# --- randomised conditions (the evaluation draws from these) --------------------------------
+LIGHTING_GAIN_RANGE = (0.5, 1.5)
+RANDOM_CASTS: tuple[str, ...] = ("none", "warm", "cool")
+NOISE_SIGMA_RANGE = (1.0, 6.0)  # grey levels
+BLUR_SIGMA_RANGE_PX = (0.0, 1.2)  # Gaussian σ
+WHEEL_MISMATCH_MAX = 0.05  # |right/left − 1|
+WHEEL_SLIP_MAX = 0.02
+LATENCY_FRAMES_RANGE = (0, 2)
+MARK_YAW_MAX_DEG = 45.0
+
+# --- generated courses ------------------------------------------------------------------------
+#: Distance along the course between consecutive marks.
+SPACING_RANGE_MM = (1200.0, 2000.0)
+#: Distance from the start to the first mark.
+FIRST_MARK_RANGE_MM = (1300.0, 2000.0)
+#: Lateral offset of a mark from the course's axis; signs alternate mark to mark.
+LATERAL_OFFSET_RANGE_MM = (100.0, 450.0)
+#: After a bypass, the next mark must be at least ``bypass_distance_mm`` plus this far away,
+#: so the robot sees it and approaches before its own bypass starts.
+REACQUIRE_MARGIN_MM = 300.0
+#: The next mark may lie this far outside the field of view at the end of a bypass (a short
+#: search turn finds it).
+MAX_SEARCH_TURN_DEG = 15.0
+#: The first mark is this far inside the field of view from the start pose.
+FIRST_MARK_FOV_MARGIN_DEG = 8.0
+#: Random draws per mark on the alternating side (then as many on the other side) before falling
+#: back to a mark on the course's axis.
+GENERATION_TRIES = 200
+
+# --- background clutter -----------------------------------------------------------------------
+#: Clutter stays this far above or below the horizon, where the marks' centres are: a mark
+#: farther than ~1.2 m (radius < 50 px at f = 590) never touches it.
+CLUTTER_CLEAR_DEG = 5.0
+CLUTTER_MAX_ELEVATION_DEG = 21.0
+#: Hues of common mark colours (OpenCV units): half of the clutter is drawn near one of them.
+_LOOKALIKE_HUES = (0.0, 15.0, 28.0, 62.0, 112.0, 150.0)
+
+_Finite = Annotated[float, Field(allow_inf_nan=False)]
+_Gain = Annotated[float, Field(gt=0.0, le=4.0, allow_inf_nan=False)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class MarkSpec(_Strict):
+    """One mark: a disc of ``colour`` standing at (x_mm, y_mm), its face turned by ``yaw_deg``."""
+
+    colour: str = Field(min_length=1)
+    x_mm: _Finite
+    y_mm: _Finite
+    yaw_deg: _Finite = 0.0
+    radius_mm: Annotated[float, Field(gt=0.0, le=2000.0, allow_inf_nan=False)] | None = None
+
+    @property
+    def xy(self) -> tuple[float, float]:
+        return (self.x_mm, self.y_mm)
+
+    @property
+    def yaw_rad(self) -> float:
+        return math.radians(self.yaw_deg)
+
+    @property
+    def normal(self) -> tuple[float, float]:
+        """Unit normal of the disc's face in the world frame: (0, −1) at yaw 0."""
+        a = self.yaw_rad
+        return (math.sin(a), -math.cos(a))
+
+    def radius(self, default: float = DEFAULT_MARK_RADIUS_MM) -> float:
+        """The mark's radius, or ``default`` when the world file leaves it out."""
+        return self.radius_mm if self.radius_mm is not None else default
+
+
+class RobotStart(_Strict):
+    """The robot's start pose; the default is the architecture's: origin, facing +y."""
+
+    x_mm: _Finite = 0.0
+    y_mm: _Finite = 0.0
+    heading_deg: _Finite = 90.0
+
+    def pose(self) -> Pose:
+        return Pose(self.x_mm, self.y_mm, wrap_angle(math.radians(self.heading_deg)))
+
+
+class Wall(_Strict):
+    """A wall: the segment from (x1, y1) to (x2, y2), mm."""
+
+    x1_mm: _Finite
+    y1_mm: _Finite
+    x2_mm: _Finite
+    y2_mm: _Finite
+
+    @model_validator(mode="after")
+    def _not_a_point(self) -> Wall:
+        if self.x1_mm == self.x2_mm and self.y1_mm == self.y2_mm:
+            raise ValueError("a wall needs two different end points")
+        return self
+
+    def segment(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        return ((self.x1_mm, self.y1_mm), (self.x2_mm, self.y2_mm))
+
+
+class Box(_Strict):
+    """A rectangular obstacle centred at (x_mm, y_mm): width along x, depth along y, turned by
+    ``yaw_deg`` counter-clockwise."""
+
+    x_mm: _Finite
+    y_mm: _Finite
+    width_mm: Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
+    depth_mm: Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
+    yaw_deg: _Finite = 0.0
+
+    def corners(self) -> list[tuple[float, float]]:
+        """The four corners, counter-clockwise."""
+        c, s = math.cos(math.radians(self.yaw_deg)), math.sin(math.radians(self.yaw_deg))
+        hw, hd = self.width_mm / 2.0, self.depth_mm / 2.0
+        out = []
+        for lx, ly in ((-hw, -hd), (hw, -hd), (hw, hd), (-hw, hd)):
+            out.append((self.x_mm + c * lx - s * ly, self.y_mm + s * lx + c * ly))
+        return out
+
+    def contains(self, x: float, y: float) -> bool:
+        c, s = math.cos(math.radians(self.yaw_deg)), math.sin(math.radians(self.yaw_deg))
+        dx, dy = x - self.x_mm, y - self.y_mm
+        lx, ly = c * dx + s * dy, -s * dx + c * dy
+        return abs(lx) <= self.width_mm / 2.0 and abs(ly) <= self.depth_mm / 2.0
+
+
+class Conditions(_Strict):
+    """Image and wheel conditions.
+
+    - ``lighting_gain``: multiplies the whole image (0.5 dim, 1.5 bright).
+    - ``cast``: ``none``, ``warm``, ``cool`` (see :data:`CAST_GAINS_BGR`) or explicit
+      ``[b, g, r]`` channel gains.
+    - ``noise_sigma``: σ of additive Gaussian image noise, grey levels.
+    - ``blur_sigma_px``: σ of a Gaussian blur, pixels (0: none).
+    - ``wheel_mismatch``: the right wheel's ground speed is ``(1 + wheel_mismatch)`` times the
+      left's for the same command (e.g. unequal tyres); the encoders do not see it.
+    - ``wheel_slip``: fraction of each wheel's travel lost to slip; the encoders do not see it.
+    - ``latency_frames``: the camera delivers the frame taken this many reads earlier.
+    """
+
+    lighting_gain: _Gain = 1.0
+    cast: Literal["none", "warm", "cool"] | tuple[_Gain, _Gain, _Gain] = "none"
+    noise_sigma: Annotated[float, Field(ge=0.0, le=64.0, allow_inf_nan=False)] = 2.0
+    blur_sigma_px: Annotated[float, Field(ge=0.0, le=10.0, allow_inf_nan=False)] = 0.0
+    wheel_mismatch: Annotated[float, Field(ge=-0.5, le=0.5, allow_inf_nan=False)] = 0.0
+    wheel_slip: Annotated[float, Field(ge=0.0, lt=1.0, allow_inf_nan=False)] = 0.0
+    latency_frames: Annotated[int, Field(ge=0, le=30)] = 0
+
+    @field_validator("cast", mode="before")
+    @classmethod
+    def _known_cast(cls, value: object) -> object:
+        if isinstance(value, str) and value not in CAST_GAINS_BGR:
+            raise ValueError(
+                f"unknown cast {value!r}: use none, warm, cool or [b, g, r] channel gains"
+            )
+        if not isinstance(value, (str, list, tuple)):
+            raise ValueError("cast must be none, warm, cool or [b, g, r] channel gains")
+        return value
+
+    def cast_gains_bgr(self) -> tuple[float, float, float]:
+        """The cast as (B, G, R) gains."""
+        if isinstance(self.cast, str):
+            return CAST_GAINS_BGR[self.cast]
+        return (float(self.cast[0]), float(self.cast[1]), float(self.cast[2]))
+
+    def channel_gains_bgr(self) -> tuple[float, float, float]:
+        """Lighting gain times the cast, per channel (B, G, R)."""
+        b, g, r = self.cast_gains_bgr()
+        k = self.lighting_gain
+        return (k * b, k * g, k * r)
+
+
+class Background(_Strict):
+    """What the camera sees behind the marks: a textured room drawn from ``seed``, with
+    ``clutter`` non-circular coloured shapes (posters, tape stripes) on the far wall."""
+
+    seed: Annotated[int, Field(ge=0)] = 0
+    clutter: Annotated[int, Field(ge=0, le=200)] = 8
+
+
+class World(_Strict):
+    """A simulated world. Load one with :func:`load_world` or build one with
+    :func:`generate_world`; the model validates programmatic construction the same way."""
+
+    marks: tuple[MarkSpec, ...] = ()
+    robot: RobotStart = RobotStart()
+    walls: tuple[Wall, ...] = ()
+    boxes: tuple[Box, ...] = ()
+    conditions: Conditions = Conditions()
+    background: Background = Background()
+
+    # Where each mark's colour sits in the source file (for check_against_palette).
+    _source: str | None = PrivateAttr(default=None)
+    _colour_positions: dict[int, Position] = PrivateAttr(default_factory=dict)
+
+    @field_validator("marks")
+    @classmethod
+    def _marks_apart(cls, marks: tuple[MarkSpec, ...]) -> tuple[MarkSpec, ...]:
+        for j, b in enumerate(marks):
+            for i in range(j):
+                a = marks[i]
+                gap = math.dist(a.xy, b.xy)
+                if gap < a.radius() + b.radius():
+                    raise ValueError(
+                        f"marks[{j}] ({b.colour} at {b.x_mm:g}, {b.y_mm:g}) overlaps marks[{i}] "
+                        f"({a.colour} at {a.x_mm:g}, {a.y_mm:g}): centres {gap:.0f} mm apart, "
+                        f"radii {a.radius():g} + {b.radius():g} mm"
+                    )
+        return marks
+
+    @property
+    def source(self) -> str | None:
+        """The file this world was loaded from, if any."""
+        return self._source
+
+    def with_mark_radius(self, radius_mm: float) -> World:
+        """A copy where marks without their own ``radius_mm`` get ``radius_mm`` (the mission's)."""
+        marks = tuple(
+            m if m.radius_mm is not None else m.model_copy(update={"radius_mm": float(radius_mm)})
+            for m in self.marks
+        )
+        out = World.model_validate({**self._fields_dict(), "marks": marks})
+        out._source = self._source
+        out._colour_positions = dict(self._colour_positions)
+        return out
+
+    def with_conditions(self, conditions: Conditions) -> World:
+        """A copy with other conditions."""
+        out = self.model_copy(update={"conditions": conditions})
+        out._colour_positions = dict(self._colour_positions)
+        return out
+
+    def _fields_dict(self) -> dict[str, Any]:
+        return {name: getattr(self, name) for name in type(self).model_fields}
+
+
+def load_world(path: str | Path) -> World:
+    """Read and validate a world file; any problem is an :class:`InputError` naming the file,
+    line, column and field (``FILE:LINE:COLUMN: field: message``)."""
+    doc = load_yaml_file(path)
+    world = parse_model(doc, World)
+    world._source = str(path)
+    for i in range(len(world.marks)):
+        pos = doc.positions.get(("marks", i, "colour"))
+        if pos is not None:
+            world._colour_positions[i] = pos
+    return world
+
+
+def check_against_palette(
+    world: World, palette: Sequence[ColourRange], file: str | Path | None = None
+) -> None:
+    """Raise :class:`InputError` (one per offending mark, with the mark's line when the world
+    came from a file) if a mark's colour is not in the mission's palette."""
+    import difflib
+
+    names = [c.name for c in palette]
+    where = str(file) if file is not None else world.source
+    errors: list[InputError] = []
+    for i, mark in enumerate(world.marks):
+        if mark.colour in names:
+            continue
+        close = difflib.get_close_matches(mark.colour, names, n=1)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        pos = world._colour_positions.get(i)
+        errors.append(
+            InputError(
+                f"colour {mark.colour!r} is not in the mission's palette "
+                f"({', '.join(sorted(names)) or 'empty'}){hint}",
+                file=where,
+                line=pos.line if pos else None,
+                column=pos.column if pos else None,
+                field=f"marks[{i}].colour",
+            )
+        )
+    if errors:
+        raise InputErrors(errors)
+
+
+# --- generated worlds -------------------------------------------------------------------------
+
+
+def random_conditions(rng: np.random.Generator) -> Conditions:
+    """Conditions drawn uniformly from the module's ranges (what ``evaluate`` randomises)."""
+    lo, hi = LATENCY_FRAMES_RANGE
+    return Conditions(
+        lighting_gain=float(rng.uniform(*LIGHTING_GAIN_RANGE)),
+        cast=RANDOM_CASTS[int(rng.integers(len(RANDOM_CASTS)))],  # type: ignore[arg-type]
+        noise_sigma=float(rng.uniform(*NOISE_SIGMA_RANGE)),
+        blur_sigma_px=float(rng.uniform(*BLUR_SIGMA_RANGE_PX)),
+        wheel_mismatch=float(rng.uniform(-WHEEL_MISMATCH_MAX, WHEEL_MISMATCH_MAX)),
+        wheel_slip=float(rng.uniform(0.0, WHEEL_SLIP_MAX)),
+        latency_frames=int(rng.integers(lo, hi + 1)),
+    )
+
+
+def _bearing(frm: tuple[float, float], heading: float, to: tuple[float, float]) -> float:
+    return wrap_angle(math.atan2(to[1] - frm[1], to[0] - frm[0]) - heading)
+
+
+def generate_world(
+    route: Sequence[str],
+    *,
+    seed: int,
+    clearance_mm: float,
+    radius_mm: float = DEFAULT_MARK_RADIUS_MM,
+    conditions: Literal["randomised", "default"] | Conditions = "default",
+    bypass_distance_mm: float = 800.0,
+    sides: Sequence[Literal["left", "right"]] | None = None,
+    half_fov_deg: float = DEFAULT_HALF_FOV_DEG,
+    start: RobotStart | None = None,
+    clutter: int = Background().clutter,
+) -> World:
+    """A world for ``route`` (colours in order) that the route can be driven through.
+
+    Marks go along +y from the start (default pose), each ``SPACING_RANGE_MM`` after the previous
+    one (``FIRST_MARK_RANGE_MM`` for the first), offset sideways by ``LATERAL_OFFSET_RANGE_MM`` with
+    alternating signs. A draw is kept only if (a) the first mark is in full view from the start,
+    (b) from where each bypass ends — beside the mark at ``clearance_mm`` on the side to pass
+    (both sides when ``sides`` is not given), heading as when the bypass began — the next mark is
+    at least ``bypass_distance_mm + REACQUIRE_MARGIN_MM`` away and within the field of view plus
+    ``MAX_SEARCH_TURN_DEG``. After ``GENERATION_TRIES`` failed draws the offset's side flips; after
+    as many again the mark goes on the axis, at the longest spacing. With
+    ``conditions="randomised"`` the image/wheel conditions (:func:`random_conditions`) and every
+    mark's yaw (±``MARK_YAW_MAX_DEG``) are drawn too. Same arguments and seed → same world.
+    """
+    if clearance_mm <= 0 or radius_mm <= 0 or bypass_distance_mm <= 0:
+        raise ValueError("clearance, radius and bypass distance must be positive")
+    if sides is not None and len(sides) != len(route):
+        raise ValueError(f"sides has {len(sides)} entries for a route of {len(route)}")
+    rng = np.random.default_rng([int(seed), 0x5EED])
+    robot = start if start is not None else RobotStart()
+    randomised = conditions == "randomised"
+    if isinstance(conditions, Conditions):
+        cond = conditions
+    elif randomised:
+        cond = random_conditions(rng)
+    elif conditions == "default":
+        cond = Conditions()
+    else:
+        raise ValueError(f"conditions must be 'randomised', 'default' or Conditions: {conditions}")
+
+    half_fov = math.radians(half_fov_deg)
+    reacquire = bypass_distance_mm + REACQUIRE_MARGIN_MM
+    spacing_lo = max(SPACING_RANGE_MM[0], reacquire + clearance_mm)
+    spacing_hi = max(SPACING_RANGE_MM[1], spacing_lo + 200.0)
+    first_lo = max(FIRST_MARK_RANGE_MM[0], reacquire)
+    first_hi = max(FIRST_MARK_RANGE_MM[1], first_lo + 200.0)
+
+    p0 = robot.pose()
+    fwd = (math.cos(p0.theta), math.sin(p0.theta))
+    left = (-fwd[1], fwd[0])
+    sign = 1.0 if rng.random() < 0.5 else -1.0
+
+    marks: list[MarkSpec] = []
+    # Where the robot can be when it starts looking for the next mark, with its heading then.
+    origins: list[tuple[tuple[float, float], float]] = [((p0.x, p0.y), p0.theta)]
+    along = 0.0
+    for i, colour in enumerate(route):
+        first = i == 0
+        lo, hi = (first_lo, first_hi) if first else (spacing_lo, spacing_hi)
+        chosen: tuple[float, float, float] | None = None
+        for attempt in range(2 * GENERATION_TRIES):
+            # The alternating side first; then the other side, before giving up.
+            side_sign = sign if attempt < GENERATION_TRIES else -sign
+            step = round(float(rng.uniform(lo, hi)), 1)
+            off = round(side_sign * float(rng.uniform(*LATERAL_OFFSET_RANGE_MM)), 1)
+            a = along + step
+            m = (p0.x + a * fwd[0] + off * left[0], p0.y + a * fwd[1] + off * left[1])
+            ok = True
+            for o_xy, o_heading in origins:
+                dist = math.dist(o_xy, m)
+                angular_r = math.asin(min(1.0, radius_mm / dist))
+                limit = (half_fov - math.radians(FIRST_MARK_FOV_MARGIN_DEG) - angular_r if first
+                         else half_fov + math.radians(MAX_SEARCH_TURN_DEG))
+                if dist < reacquire or abs(_bearing(o_xy, o_heading, m)) > limit:
+                    ok = False
+                    break
+            if ok:
+                chosen = (a, off, step)
+                break
+        if chosen is None:
+            # Straight down the axis: in view from the previous origins by construction.
+            chosen = (along + hi, 0.0, hi)
+        a, off, _ = chosen
+        along = a
+        if off != 0.0:
+            sign = math.copysign(1.0, off)
+        m = (p0.x + a * fwd[0] + off * left[0], p0.y + a * fwd[1] + off * left[1])
+        yaw = float(rng.uniform(-MARK_YAW_MAX_DEG, MARK_YAW_MAX_DEG)) if randomised else 0.0
+        yaw += math.degrees(p0.theta - math.pi / 2.0)  # face the course's start direction
+        marks.append(MarkSpec(colour=colour, x_mm=round(m[0], 1), y_mm=round(m[1], 1),
+                              yaw_deg=round(yaw, 2), radius_mm=radius_mm))
+        # The bypass of this mark begins where the robot, coming from the previous origins,
+        # heads at the mark; it ends beside the mark at the clearance, heading unchanged.
+        new_origins: list[tuple[tuple[float, float], float]] = []
+        wanted = [sides[i]] if sides is not None else ["left", "right"]
+        for o_xy, _o_heading in origins:
+            h = math.atan2(m[1] - o_xy[1], m[0] - o_xy[0])
+            n = (-math.sin(h), math.cos(h))
+            for side in wanted:
+                s = 1.0 if side == "left" else -1.0  # pass on the mark's left: robot on its left
+                w = (m[0] + s * clearance_mm * n[0], m[1] + s * clearance_mm * n[1])
+                new_origins.append((w, h))
+        # Keep the set small: the extreme ends are the binding ones.
+        origins = new_origins[:4] if len(new_origins) <= 4 else [
+            new_origins[0], new_origins[1], new_origins[-2], new_origins[-1]]
+        sign = -sign
+    return World(
+        marks=tuple(marks),
+        robot=robot,
+        conditions=cond,
+        background=Background(seed=int(seed), clutter=clutter),
+    )
+
+
+# --- background clutter -----------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ClutterItem:
+    """A non-circular coloured shape on the far wall, in angular coordinates around the robot.
+
+    ``kind`` is ``"rect"`` (a poster, aspect ≥ 2) or ``"stripes"`` (``bars`` parallel bars).
+    Azimuth is in the world frame (CCW from +x); elevation is above the horizon (negative below).
+    """
+
+    kind: Literal["rect", "stripes"]
+    azimuth_deg: float
+    elevation_deg: float
+    width_deg: float
+    height_deg: float
+    hue: float  # OpenCV units 0..179
+    sat: int
+    val: int
+    bars: int = 1
+
+
+def clutter_items(world: World | Background) -> tuple[ClutterItem, ...]:
+    """The world's background clutter, drawn from ``background.seed`` (deterministic)."""
+    background = world.background if isinstance(world, World) else world
+    rng = np.random.default_rng([background.seed, 0xC1077E5])
+    items: list[ClutterItem] = []
+    for _ in range(background.clutter):
+        kind: Literal["rect", "stripes"] = "rect" if rng.random() < 0.6 else "stripes"
+        long_side = float(rng.uniform(4.0, 14.0))
+        short_side = long_side / float(rng.uniform(2.2, 5.0))
+        if rng.random() < 0.5:
+            w, h = long_side, short_side
+        else:
+            w, h = short_side, long_side
+        if kind == "stripes":
+            w, h = max(w, h), max(w, h) * float(rng.uniform(0.4, 0.9))
+        h = min(h, CLUTTER_MAX_ELEVATION_DEG - CLUTTER_CLEAR_DEG - 0.5)
+        lo = CLUTTER_CLEAR_DEG + h / 2.0
+        hi = CLUTTER_MAX_ELEVATION_DEG - h / 2.0
+        elev = float(rng.uniform(lo, max(lo, hi)))
+        if rng.random() < 0.3:
+            elev = -elev
+        if rng.random() < 0.5:
+            hue = float(_LOOKALIKE_HUES[int(rng.integers(len(_LOOKALIKE_HUES)))]
+                        + rng.uniform(-6.0, 6.0)) % 180.0
+        else:
+            hue = float(rng.uniform(0.0, 180.0))
+        items.append(
+            ClutterItem(
+                kind=kind,
+                azimuth_deg=float(rng.uniform(0.0, 360.0)),
+                elevation_deg=elev,
+                width_deg=w,
+                height_deg=h,
+                hue=hue,
+                sat=int(rng.integers(140, 256)),
+                val=int(rng.integers(110, 231)),
+                bars=int(rng.integers(3, 6)) if kind == "stripes" else 1,
+            )
+        )
+    return tuple(items)
+
+
+# --- contacts ---------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Contact:
+    """The robot touching an obstacle.
+
+    ``kind`` and ``index`` name it (``world.marks[index]``, ``walls[index]``, ``boxes[index]``);
+    (x_mm, y_mm) is the contact point on the robot's rim; ``angle_rad`` is its direction from the
+    robot's centre relative to the heading, positive to the left, in (−π, π]; ``depth_mm`` is how
+    far the obstacle reaches inside the robot's disc (0 when just touching).
+    """
+
+    kind: Literal["mark", "wall", "box"]
+    index: int
+    x_mm: float
+    y_mm: float
+    angle_rad: float
+    depth_mm: float
+
+    @property
+    def bump_left(self) -> bool:
+        a = math.degrees(self.angle_rad)
+        return -BOTH_BUMPS_HALF_ANGLE_DEG <= a <= BUMPER_HALF_ARC_DEG
+
+    @property
+    def bump_right(self) -> bool:
+        a = math.degrees(self.angle_rad)
+        return -BUMPER_HALF_ARC_DEG <= a <= BOTH_BUMPS_HALF_ANGLE_DEG
+
+
+@dataclass(frozen=True)
+class Bumps:
+    """The bumper bits a set of contacts presses (OI packet 7 bits 1 and 0)."""
+
+    left: bool
+    right: bool
+
+
+def _closest_on_segment(
+    p: tuple[float, float], a: tuple[float, float], b: tuple[float, float]
+) -> tuple[float, float]:
+    abx, aby = b[0] - a[0], b[1] - a[1]
+    t = ((p[0] - a[0]) * abx + (p[1] - a[1]) * aby) / (abx * abx + aby * aby)
+    t = min(1.0, max(0.0, t))
+    return (a[0] + t * abx, a[1] + t * aby)
+
+
+def _contact(
+    pose: Pose, kind: Literal["mark", "wall", "box"], index: int, towards: tuple[float, float],
+    depth: float, robot_radius_mm: float,
+) -> Contact:
+    dx, dy = towards[0] - pose.x, towards[1] - pose.y
+    direction = math.atan2(dy, dx) if (dx or dy) else pose.theta
+    return Contact(
+        kind=kind,
+        index=index,
+        x_mm=pose.x + robot_radius_mm * math.cos(direction),
+        y_mm=pose.y + robot_radius_mm * math.sin(direction),
+        angle_rad=wrap_angle(direction - pose.theta),
+        depth_mm=max(0.0, depth),
+    )
+
+
+def contacts(
+    world: World, pose: Pose, *, robot_radius_mm: float = CREATE_RADIUS_MM
+) -> list[Contact]:
+    """Every mark, wall and box the robot (a disc of ``robot_radius_mm`` at ``pose``) touches."""
+    out: list[Contact] = []
+    p = (pose.x, pose.y)
+    for i, m in enumerate(world.marks):
+        reach = robot_radius_mm + m.radius()
+        d = math.dist(p, m.xy)
+        if d <= reach:
+            out.append(_contact(pose, "mark", i, m.xy, reach - d, robot_radius_mm))
+    for i, w in enumerate(world.walls):
+        q = _closest_on_segment(p, *w.segment())
+        d = math.dist(p, q)
+        if d <= robot_radius_mm:
+            out.append(_contact(pose, "wall", i, q, robot_radius_mm - d, robot_radius_mm))
+    for i, box in enumerate(world.boxes):
+        corners = box.corners()
+        best: tuple[float, float] | None = None
+        for k in range(4):
+            q = _closest_on_segment(p, corners[k], corners[(k + 1) % 4])
+            if best is None or math.dist(p, q) < math.dist(p, best):
+                best = q
+        assert best is not None
+        inside = box.contains(*p)
+        d = math.dist(p, best)
+        if inside or d <= robot_radius_mm:
+            towards = (box.x_mm, box.y_mm) if inside else best
+            depth = robot_radius_mm + d if inside else robot_radius_mm - d
+            out.append(_contact(pose, "box", i, towards, depth, robot_radius_mm))
+    return out
+
+
+def bumps(found: Sequence[Contact]) -> Bumps:
+    """The bumper bits pressed by ``found`` (contacts behind the bumper's arc press none)."""
+    return Bumps(left=any(c.bump_left for c in found), right=any(c.bump_right for c in found))
+
+
+def push_out(
+    world: World, pose: Pose, *, robot_radius_mm: float = CREATE_RADIUS_MM, iterations: int = 8
+) -> Pose:
+    """The nearest pose (same heading) where the robot no longer overlaps anything: each contact
+    pushes the centre away from it by its depth; a few rounds settle corners."""
+    x, y = pose.x, pose.y
+    for _ in range(iterations):
+        found = contacts(world, Pose(x, y, pose.theta), robot_radius_mm=robot_radius_mm)
+        moved = False
+        for c in found:
+            if c.depth_mm <= 1e-9:
+                continue
+            direction = pose.theta + c.angle_rad
+            x -= (c.depth_mm + 1e-6) * math.cos(direction)
+            y -= (c.depth_mm + 1e-6) * math.sin(direction)
+            moved = True
+        if not moved:
+            break
+    return Pose(x, y, pose.theta)
+
+
+# --- run-report measures ----------------------------------------------------------------------
+
+Trajectory = Sequence[Pose] | Sequence[tuple[float, float]] | npt.NDArray[np.float64]
+
+
+def _xy(trajectory: Trajectory) -> npt.NDArray[np.float64]:
+    if isinstance(trajectory, np.ndarray):
+        arr = np.asarray(trajectory, dtype=float)
+    else:
+        rows = [(p.x, p.y) if isinstance(p, Pose) else (p[0], p[1]) for p in trajectory]
+        arr = np.asarray(rows, dtype=float).reshape(-1, 2)
+    if arr.ndim != 2 or arr.shape[1] < 2:
+        raise ValueError(f"a trajectory is a sequence of (x, y) points, got shape {arr.shape}")
+    return arr[:, :2]
+
+
+def min_clearance_mm(trajectory: Trajectory, mark_xy: tuple[float, float]) -> float:
+    """Smallest distance (mm) between the robot's centre and the mark's centre along the path,
+    the path taken as straight segments between the samples. ``inf`` for an empty path."""
+    p = _xy(trajectory)
+    if len(p) == 0:
+        return math.inf
+    m = np.asarray(mark_xy, dtype=float)
+    if len(p) == 1:
+        return float(np.hypot(*(p[0] - m)))
+    a, b = p[:-1], p[1:]
+    ab = b - a
+    den = np.einsum("ij,ij->i", ab, ab)
+    t = np.where(den > 0, np.einsum("ij,ij->i", m - a, ab) / np.where(den > 0, den, 1.0), 0.0)
+    t = np.clip(t, 0.0, 1.0)
+    closest = a + t[:, None] * ab
+    return float(np.min(np.hypot(*(closest - m).T)))
+
+
+@dataclass(frozen=True)
+class Crossing:
+    """The robot crossing the line through the mark perpendicular to its direction of travel.
+
+    ``index`` is the sample the crossing segment starts at, ``fraction`` how far along it;
+    ``lateral_mm`` is the mark's distance to the robot's left at that moment (negative: right);
+    ``side`` is the side of the mark the robot passed on.
+    """
+
+    index: int
+    fraction: float
+    lateral_mm: float
+
+    @property
+    def side(self) -> Literal["left", "right"]:
+        # Mark on the robot's right (lateral < 0) = robot on the mark's left.
+        return "left" if self.lateral_mm < 0 else "right"
+
+
+#: A crossing counts again only after the mark has come back within this angle of the direction
+#: of travel (so circling a mark, which keeps it abeam, is one pass, not one per sample).
+REARM_BEARING_DEG = 80.0
+
+
+def pass_crossings(
+    trajectory: Trajectory, mark_xy: tuple[float, float], *, within_mm: float = 1000.0
+) -> list[Crossing]:
+    """The passes of a mark along a path, in order.
+
+    A pass is the path crossing the line through the mark perpendicular to the direction of
+    travel (the mark going from ahead to behind), by a segment within ``within_mm`` of the mark
+    (farther crossings are not a pass). After a pass, the next one counts only once the mark has
+    been back within ``REARM_BEARING_DEG`` of the direction of travel.
+    """
+    p = _xy(trajectory)
+    m = np.asarray(mark_xy, dtype=float)
+    rearm = math.cos(math.radians(REARM_BEARING_DEG))
+    armed = True
+    out: list[Crossing] = []
+    for k in range(len(p) - 1):
+        d = p[k + 1] - p[k]
+        dd = float(d @ d)
+        if dd <= 0.0:
+            continue
+        to_mark = m - p[k]
+        dist = float(np.hypot(*to_mark))
+        if dist > 0 and float(to_mark @ d) / (dist * math.sqrt(dd)) >= rearm:
+            armed = True
+        s0 = float((p[k] - m) @ d)
+        s1 = float((p[k + 1] - m) @ d)
+        if not (armed and s0 < 0.0 <= s1):
+            continue
+        t = -s0 / dd
+        at = p[k] + t * d
+        u = d / math.sqrt(dd)
+        rel = m - at
+        lateral = float(u[0] * rel[1] - u[1] * rel[0])  # + : mark on the robot's left
+        if abs(lateral) <= within_mm:
+            out.append(Crossing(index=k, fraction=t, lateral_mm=lateral))
+            armed = False
+    return out
+
+
+def passed_on(
+    trajectory: Trajectory, mark_xy: tuple[float, float], *, within_mm: float = 1000.0
+) -> Literal["left", "right"] | None:
+    """The side of the mark the robot passed on at its first crossing (see
+    :func:`pass_crossings`), or ``None`` if it never passed the mark."""
+    found = pass_crossings(trajectory, mark_xy, within_mm=within_mm)
+    return found[0].side if found else None

@@ -1,0 +1,295 @@
+"""CreateDriver against the in-process simulated Create (``createsim://``).
+
+Lock-step tests use a ManualClock shared by the simulator and the driver with
+``reader_thread=False``: step the simulator one 15 ms tick, then ``process_input``. They are
+deterministic. A few tests run the real reader thread against a real-time simulator.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterator
+
+import pytest
+
+from marknav.clock import ManualClock
+from marknav.drivers import oi
+from marknav.drivers.driver import CreateDriver, default_stream_ids
+from marknav.drivers.oi import Model, OIMode, Opcode
+from marknav.drivers.transport import open_port
+from marknav.errors import InputError
+from marknav.planning.kinematics import Pose
+from marknav.sim import protocol_createsim
+from marknav.sim.create import SimulatedCreate
+
+TICK = oi.STREAM_PERIOD_S
+
+
+class Rig:
+    """A simulated Create and a lock-step driver on one ManualClock."""
+
+    def __init__(self, model: Model = Model.CREATE2, **sim_kwargs: object) -> None:
+        self.clock = ManualClock()
+        self.sim = SimulatedCreate(model=model, clock=self.clock, **sim_kwargs)  # type: ignore[arg-type]
+        self.url = protocol_createsim.register(self.sim)
+        self.driver = CreateDriver(self.url, model=model, clock=self.clock, settle_s=0.0,
+                                   first_frame_timeout_s=None, reader_thread=False)
+
+    def tick(self, n: int = 1) -> None:
+        for _ in range(n):
+            self.sim.step(TICK)
+            self.driver.process_input()
+
+    def run(self, seconds: float, *, left: float, right: float) -> None:
+        """Command every tick (a 66 Hz controller) for ``seconds``."""
+        for _ in range(round(seconds / TICK)):
+            assert self.driver.drive(left=left, right=right)
+            self.tick()
+
+    def close(self) -> None:
+        self.driver.close()
+        protocol_createsim.unregister(self.url.split("//")[1])
+
+
+@pytest.fixture
+def rig() -> Iterator[Rig]:
+    r = Rig()
+    r.driver.connect()
+    r.tick()
+    yield r
+    r.close()
+
+
+def test_no_io_before_connect_and_bad_port_is_an_input_error() -> None:
+    driver = CreateDriver("/dev/does-not-exist-marknav")  # constructing touches nothing
+    with pytest.raises(InputError) as exc:
+        driver.connect()
+    assert str(exc.value).startswith("/dev/does-not-exist-marknav: cannot open serial port")
+    with pytest.raises(InputError, match="protocol 'nope' not known"):
+        CreateDriver("nope://x").connect()
+
+
+def test_bad_model_and_stream_budget() -> None:
+    with pytest.raises(InputError, match="unknown robot model 'roomba'"):
+        CreateDriver("/dev/null", model="roomba")
+    with pytest.raises(ValueError, match="109 bytes is over 60% of the 86 bytes per 15 ms"):
+        CreateDriver("/dev/null", model="create1", stream_ids=[6, 6])
+    with pytest.raises(ValueError, match="does not exist on the create1"):
+        CreateDriver("/dev/null", model="create1", stream_ids=[43])
+
+
+def test_default_streams_fit_well_inside_the_budget() -> None:
+    c1 = CreateDriver("/dev/null", model="create1")
+    c2 = CreateDriver("/dev/null", model="create2")
+    assert (c1.stream_frame_bytes, c2.stream_frame_bytes) == (47, 55)
+    assert 43 in default_stream_ids(Model.CREATE2) and 43 not in default_stream_ids(Model.CREATE1)
+
+
+def test_connect_sends_start_safe_and_the_stream(rig: Rig) -> None:
+    sent = [(c.opcode, c.data) for c in rig.sim.commands]
+    assert sent[:2] == [(Opcode.START, b""), (Opcode.SAFE, b"")]
+    ids = default_stream_ids(Model.CREATE2)
+    assert sent[2] == (Opcode.STREAM, bytes([len(ids), *ids]))
+    assert rig.sim.mode is OIMode.SAFE and rig.sim.streaming
+    assert rig.driver.safety_state == "ready"
+    assert rig.driver.sensors is not None and rig.driver.sensors.oi_mode is OIMode.SAFE
+
+
+def test_drive_goes_through_safety_and_odometry_follows_the_ground_truth(rig: Rig) -> None:
+    rig.run(1.0, left=200, right=200)
+    assert rig.driver.safety_state == "driving"
+    assert (rig.sim.wheel_speeds.left, rig.sim.wheel_speeds.right) == (200.0, 200.0)
+    rig.run(2.0, left=100, right=250)  # an arc
+    rig.driver.stop()
+    rig.tick(2)
+    truth, odo = rig.sim.pose, rig.driver.pose()
+    assert math.hypot(truth.x - odo.x, truth.y - odo.y) < 2.0
+    assert abs(truth.theta - odo.theta) < 0.01
+    assert rig.driver.safety_state == "ready" and rig.sim.wheel_speeds.left == 0.0
+
+
+def test_over_limit_commands_keep_the_curve(rig: Rig) -> None:
+    assert rig.driver.drive(left=1000, right=600)
+    assert (rig.sim.wheel_speeds.left, rig.sim.wheel_speeds.right) == (500.0, 300.0)
+
+
+def test_a_bump_frame_stops_the_wheels_within_one_stream_period(rig: Rig) -> None:
+    rig.run(0.3, left=200, right=200)
+    rig.sim.set_bump(left=True, right=False)
+    rig.sim.step(TICK)  # the robot emits the bump frame
+    assert rig.sim.wheel_speeds.left == 200.0  # the robot itself does not stop on bumps
+    rig.driver.process_input()
+    assert rig.sim.wheel_speeds.left == 0.0 and rig.sim.wheel_speeds.right == 0.0
+    assert rig.driver.safety_state == "bumped"
+    assert not rig.driver.drive(left=100, right=100)
+    assert rig.driver.backoff(left=-100, right=-100)
+    assert rig.sim.wheel_speeds.left == -100.0
+
+
+def test_command_watchdog_stops_a_robot_left_driving(rig: Rig) -> None:
+    assert rig.driver.drive(left=150, right=150)
+    rig.tick(10)  # 150 ms: still driving
+    assert rig.sim.wheel_speeds.left == 150.0
+    rig.tick(15)  # past command_timeout_s = 0.3 s
+    assert rig.sim.wheel_speeds.left == 0.0 and rig.driver.safety_state == "ready"
+
+
+def test_sensor_watchdog_trips_when_frames_stop(rig: Rig) -> None:
+    assert rig.driver.drive(left=150, right=150)
+    rig.sim.write(oi.pause_stream())  # as if the stream died
+    for _ in range(20):
+        rig.tick()
+        rig.driver.drive(left=150, right=150)
+    assert rig.driver.safety_state == "fault"
+    assert "no sensor frame" in (rig.driver.fault_reason or "")
+    assert rig.sim.wheel_speeds.left == 0.0
+
+
+def test_close_stops_pauses_returns_to_passive_and_is_idempotent(rig: Rig) -> None:
+    rig.run(0.1, left=100, right=100)
+    n = len(rig.sim.commands)
+    rig.driver.close()
+    tail = [(c.opcode, c.data) for c in list(rig.sim.commands)[n:]]
+    assert tail[-3:] == [(Opcode.DRIVE_DIRECT, bytes(4)), (Opcode.PAUSE_RESUME_STREAM, b"\x00"),
+                         (Opcode.START, b"")]
+    assert rig.sim.mode is OIMode.PASSIVE and not rig.sim.streaming
+    assert rig.sim.wheel_speeds.left == 0.0
+    rig.driver.close()
+    assert len(rig.sim.commands) == n + len(tail)
+    with pytest.raises(RuntimeError, match="connects once"):
+        rig.driver.connect()
+
+
+def test_unplugged_link_is_reported_not_raised(rig: Rig) -> None:
+    rig.run(0.1, left=100, right=100)
+    rig.sim.unplug()
+    assert rig.driver.process_input() == 0
+    assert rig.driver.link_error is not None and "unplugged" in rig.driver.link_error
+    assert rig.driver.safety_state == "fault"
+    assert "serial link lost" in (rig.driver.fault_reason or "")
+    assert not rig.driver.drive(left=100, right=100)
+    rig.driver.leds(bits=1)  # a non-wheel write on a dead link: no exception
+    rig.driver.close()
+
+
+def test_create1_odometry_from_distance_and_angle() -> None:
+    r = Rig(Model.CREATE1)
+    r.driver.connect()
+    r.tick()
+    try:
+        assert r.driver.baudrate == 57600
+        r.run(1.5, left=-120, right=120)  # spin
+        r.run(1.0, left=200, right=200)
+        r.driver.stop()
+        r.tick(2)
+        truth, odo = r.sim.pose, r.driver.pose()
+        assert abs(truth.theta - odo.theta) < math.radians(1.0)
+        assert math.hypot(truth.x - odo.x, truth.y - odo.y) < 4.0
+    finally:
+        r.close()
+
+
+def test_mode_commands_and_recovery_after_a_cliff(rig: Rig) -> None:
+    rig.run(0.1, left=100, right=100)
+    rig.sim.set_cliff(front_right=True)  # Safe mode: the robot stops and drops to Passive
+    rig.tick(2)
+    assert rig.sim.mode is OIMode.PASSIVE and rig.driver.safety_state == "fault"
+    rig.sim.set_cliff()
+    rig.driver.set_mode(OIMode.SAFE)
+    rig.tick(2)
+    assert rig.driver.reset() and rig.driver.safety_state == "ready"
+    rig.driver.song(1, [(60, 16)])
+    rig.driver.play(1)
+    assert rig.sim.played and rig.sim.played[-1][1] == 1
+
+
+def test_reset_odometry(rig: Rig) -> None:
+    rig.run(0.5, left=200, right=200)
+    rig.driver.reset_odometry(Pose(10.0, 20.0, 0.0))
+    assert rig.driver.pose() == Pose(10.0, 20.0, 0.0)
+    y0 = rig.sim.pose.y
+    rig.run(0.5, left=200, right=200)
+    rig.driver.stop()
+    rig.tick()
+    assert rig.driver.pose().x == pytest.approx(10.0 + rig.sim.pose.y - y0, abs=0.5)
+
+
+# --- the reader thread, real time ------------------------------------------------------------
+
+def test_reader_thread_against_a_real_time_simulator() -> None:
+    with CreateDriver("createsim://?model=create2", settle_s=0.0) as driver:
+        first = driver.wait_for_sensors(1.0)
+        assert first.state.oi_mode is OIMode.SAFE and driver.safety_state == "ready"
+        deadline = time.monotonic() + 0.25
+        while time.monotonic() < deadline:
+            assert driver.drive(left=200, right=200)
+            time.sleep(0.02)
+        moved = driver.pose().y
+        assert 30.0 < moved < 80.0  # about 200 mm/s x 0.25 s
+        time.sleep(0.5)  # no command for longer than command_timeout_s
+        assert driver.safety_state == "ready"
+        still = driver.wait_for_sensors(1.0, after_frame=driver.frames_received).pose.y
+        time.sleep(0.1)
+        assert driver.pose().y == pytest.approx(still, abs=1e-9)
+        assert driver.parser.bad_frames == 0 and driver.frames_received > 40
+
+
+def test_bump_is_handled_on_the_reader_thread_before_the_reading_is_published() -> None:
+    sim = SimulatedCreate(clock=ManualClock())
+    url = protocol_createsim.register(sim)
+    driver = CreateDriver(url, clock=ManualClock(), settle_s=0.0, first_frame_timeout_s=None)
+    try:
+        driver.connect()
+        sim.step(TICK)
+        driver.wait_for_sensors(1.0)
+        assert driver.drive(left=100, right=100)
+        sim.set_bump(left=False, right=True)
+        before = driver.frames_received
+        sim.step(TICK)
+        reading = driver.wait_for_sensors(1.0, after_frame=before)
+        assert reading.state.bump_right
+        # on_sensors ran (and wrote the zero) before this reading was published
+        assert sim.wheel_speeds.left == 0.0 and driver.safety_state == "bumped"
+    finally:
+        driver.close()
+        protocol_createsim.unregister(url.split("//")[1])
+
+
+def test_connect_fails_cleanly_when_no_stream_arrives() -> None:
+    sim = SimulatedCreate(clock=ManualClock())  # never stepped: no frame ever comes
+    url = protocol_createsim.register(sim)
+    try:
+        driver = CreateDriver(url, settle_s=0.0, first_frame_timeout_s=0.1)
+        with pytest.raises(InputError, match=r"no sensor stream within 0\.1 s"):
+            driver.connect()
+        assert sim.mode is OIMode.PASSIVE  # close() still returned it to Passive
+    finally:
+        protocol_createsim.unregister(url.split("//")[1])
+
+
+# --- transport ---------------------------------------------------------------------------------
+
+def test_open_port_uses_serial_for_url_without_flow_control() -> None:
+    port = open_port("createsim://?model=create1&left_scale=0.97&seed=2", baudrate=57600)
+    try:
+        assert isinstance(port, protocol_createsim.Serial) and port.sim is not None
+        assert port.sim.model is Model.CREATE1 and port.sim.left_scale == 0.97
+        assert (port.xonxoff, port.rtscts, port.dsrdtr, port.baudrate) == (False, False, False,
+                                                                             57600)
+        port.write(oi.start() + oi.sensors(35, model=Model.CREATE1))
+        assert port.read(1) == bytes([1])
+    finally:
+        port.close()
+
+
+@pytest.mark.parametrize(("url", "message"), [
+    ("createsim://?colour=red", "unknown option 'colour'"),
+    ("createsim://?model=roomba", "unknown robot model 'roomba'"),
+    ("createsim://nobody", "no simulated Create registered as 'nobody'"),
+])
+def test_open_port_errors_name_the_port(url: str, message: str) -> None:
+    with pytest.raises(InputError) as exc:
+        open_port(url, baudrate=115200)
+    text = str(exc.value)
+    assert text.startswith(f"{url}: cannot open serial port") and message in text
