@@ -14,7 +14,6 @@ Environments (the simulator, a real Create + camera) implement :class:`Environme
 from __future__ import annotations
 
 import logging
-import math
 import signal
 import time
 from collections.abc import Callable, Iterator
@@ -29,7 +28,7 @@ from py_trees.common import Status
 from marknav.clock import Clock
 from marknav.drivers.robot import ESTOPPED, FAULT, Robot
 from marknav.missions.display import TreeView
-from marknav.missions.report import ABORTED, FAILED, SUCCESS, EventLog, RunReport, WaypointResult
+from marknav.missions.report import ABORTED, FAILED, SUCCESS, EventLog, RunReport
 from marknav.vision.sources import FrameSource
 
 log = logging.getLogger(__name__)
@@ -38,10 +37,17 @@ log = logging.getLogger(__name__)
 class Environment(Protocol):
     """Robot, camera and time for one run."""
 
-    name: str
-    clock: Clock
-    robot: Robot
-    camera: FrameSource
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def clock(self) -> Clock: ...
+
+    @property
+    def robot(self) -> Robot: ...
+
+    @property
+    def camera(self) -> FrameSource: ...
 
     def poll(self) -> None:
         """Process what arrived since the last call (sensor frames, safety timeouts)."""
@@ -131,10 +137,12 @@ def run_tree(
     setup_kwargs: dict[str, Any] | None = None,
     status_line: Callable[[], str] | None = None,
     waypoint_outcomes: Callable[[], list[str]] | None = None,
+    classify: Callable[[py_trees.behaviour.Behaviour], tuple[bool, str]] | None = None,
 ) -> RunReport:
     """Run ``root`` in ``env`` until it finishes, the time runs out, or a signal arrives.
 
     Always stops the wheels and completes ``report`` (the caller writes it). Returns it.
+    ``classify(root)`` says why a failed tree failed: ``(aborted, reason)``.
     """
     tree = py_trees.trees.BehaviourTree(root)
     view = TreeView(tree, options.view_out, style=options.tree_style,
@@ -176,9 +184,11 @@ def run_tree(
                     report.outcome, report.reason = SUCCESS, "every waypoint passed"
                     break
                 if status == Status.FAILURE:
-                    reason = failure_reason(root)
-                    state = env.robot.safety_state
-                    aborted = state in (FAULT, ESTOPPED) or "abort" in reason.lower()
+                    if classify is not None:
+                        aborted, reason = classify(root)
+                    else:
+                        aborted, reason = False, failure_reason(root)
+                    aborted = aborted or env.robot.safety_state in (FAULT, ESTOPPED)
                     report.outcome = ABORTED if aborted else FAILED
                     report.reason = reason
                     break
@@ -224,18 +234,3 @@ def run_tree(
         events.write(report.sim_time_s, "end", outcome=report.outcome, reason=report.reason,
                      ticks=report.ticks)
     return report
-
-
-def percentile(values: list[float], q: float) -> float:
-    if not values:
-        return math.nan
-    s = sorted(values)
-    k = (len(s) - 1) * q / 100.0
-    lo, hi = math.floor(k), math.ceil(k)
-    return s[lo] + (s[hi] - s[lo]) * (k - lo)
-
-
-def new_report(mission_name: str, route: list[tuple[str, str]], **kw: Any) -> RunReport:
-    """A report with one pending waypoint per (colour, side) of the route."""
-    return RunReport(mission=mission_name,
-                     waypoints=[WaypointResult(colour=c, side=s) for c, s in route], **kw)

@@ -1,0 +1,264 @@
+"""Run a mission: load it, build its tree, pick the environment, run the loop, write the report.
+
+Used by ``marknav run`` and by the evaluation (many simulated runs). Everything the run needs is
+checked before the robot moves: a bad mission, world, port or camera raises
+:class:`~marknav.errors.InputError` (exit 2) and nothing starts.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TextIO
+
+import py_trees
+
+from marknav.behaviours import keys
+from marknav.behaviours.route import build_route_tree, failure_reason
+from marknav.errors import InputError
+from marknav.missions.registry import BuildContext, build_tree, default_registry
+from marknav.missions.report import ABORTED, EventLog, RunReport, WaypointResult
+from marknav.missions.runner import Environment, RunOptions, run_tree
+from marknav.missions.schema import Mission, load_mission
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class RunRequest:
+    """What ``marknav run`` was asked to do."""
+
+    mission: Mission
+    world: str | None = None
+    robot: str = "sim"
+    camera: str = "sim"
+    tree_style: str = "none"
+    out: TextIO | None = None
+    report_path: Path | None = None
+    events_path: Path | None = None
+    plot_path: Path | None = None
+    seed: int | None = None
+    realtime: bool = False
+    max_time_s: float | None = None
+    randomise: bool = False  # generated worlds: random conditions and mark yaw (evaluation)
+
+
+@dataclass
+class RunResult:
+    report: RunReport
+    environment: Environment
+    plans: list[Any] = field(default_factory=list)
+
+
+def default_max_time_s(mission: Mission) -> float:
+    """A generous limit: 60 s plus 40 s per waypoint of simulated (or real) time."""
+    return 60.0 + 40.0 * len(mission.route)
+
+
+def build_mission_tree(mission: Mission) -> py_trees.behaviour.Behaviour:
+    """The mission's own ``tree:`` if it has one, else the default route tree."""
+    if mission.tree is not None:
+        return build_tree(mission.tree, default_registry(), BuildContext(mission=mission))
+    return build_route_tree(mission)
+
+
+def _world_for(mission: Mission, req: RunRequest, seed: int) -> Any:
+    from marknav.sim import world as worldmod
+
+    path = req.world
+    if path is None and mission.sim is not None and mission.sim.world is not None:
+        path = str(mission.sim.world)
+    if path is not None:
+        world = worldmod.load_world(path)
+        worldmod.check_against_palette(world, mission.palette(), path)
+    else:
+        world = worldmod.generate_world(
+            mission.route, seed=seed, clearance_mm=mission.navigation.clearance_mm,
+            radius_mm=mission.marks.radius_mm,
+            conditions="randomised" if req.randomise else "default",
+            bypass_distance_mm=mission.navigation.bypass_distance_mm,
+            sides=[mission.side_of(c) for c in mission.route],
+            half_fov_deg=mission.camera.hfov_deg / 2.0,
+        )
+    return world.with_mark_radius(mission.marks.radius_mm)
+
+
+def make_environment(mission: Mission, req: RunRequest, seed: int) -> Environment:
+    """The simulator, or a real Create and camera, as the request says."""
+    if req.robot == "sim":
+        from marknav.sim.camera import CameraConfig
+        from marknav.sim.environment import SimEnvironment
+
+        if req.camera != "sim":
+            raise InputError("--camera must be 'sim' with --robot sim (the simulated robot "
+                             "only exists in the simulated world)", field="--camera")
+        world = _world_for(mission, req, seed)
+        cam = CameraConfig(width=mission.camera.width, height=mission.camera.height,
+                           focal_px=mission.camera.focal_px)
+        return SimEnvironment(
+            world, mission.palette(), model=mission.robot.model, camera=cam, seed=seed,
+            robot_radius_mm=mission.robot.radius_mm,
+            command_timeout_s=mission.safety.command_timeout_s,
+            sensor_timeout_s=mission.safety.sensor_timeout_s,
+            wheel_base_mm=mission.robot.wheel_base_mm,
+        )
+    if req.camera == "sim":
+        raise InputError("--camera sim needs --robot sim; give a real camera (--camera 0, a "
+                         "video file or an http:// stream) with a real robot", field="--camera")
+    from marknav.drivers.driver import CreateDriver
+    from marknav.missions.hardware import HardwareEnvironment
+    from marknav.vision.sources import open_source
+
+    camera = open_source(req.camera)
+    driver = CreateDriver(
+        req.robot, model=mission.robot.model,
+        command_timeout_s=mission.safety.command_timeout_s,
+        sensor_timeout_s=mission.safety.sensor_timeout_s,
+        wheel_base_mm=mission.robot.wheel_base_mm,
+    )
+    try:
+        driver.connect()
+    except BaseException:
+        camera.close()
+        raise
+    return HardwareEnvironment(driver, camera)
+
+
+def status_line(env: Environment) -> str:
+    """``t=12.3 s  target red #1 at 1234 mm  safety driving``."""
+    bb = py_trees.blackboard.Blackboard
+    target = bb.get(keys.TARGET) if bb.exists(keys.TARGET) else None
+    parts = [f"t={env.clock.now():.2f} s"]
+    if target is not None:
+        s = target.sighting
+        where = f" at {s.range_mm:.0f} mm" if s is not None else " (not seen)"
+        parts.append(f"target {target.label} (pass on its {target.side}){where}")
+    parts.append(f"safety {env.robot.safety_state}")
+    return "  ".join(parts)
+
+
+def waypoint_outcomes(mission: Mission, report: RunReport) -> list[str]:
+    bb = py_trees.blackboard.Blackboard
+    passed = bb.get(keys.PASSED) if bb.exists(keys.PASSED) else ()
+    done = {p.waypoint for p in passed}
+    out = []
+    failed_marked = False
+    for i in range(len(mission.route)):
+        if i in done:
+            out.append("passed")
+        elif report.outcome != "success" and not failed_marked:
+            out.append("failed")
+            failed_marked = True
+        else:
+            out.append("pending")
+    return out
+
+
+def pass_times(mission: Mission) -> list[float | None]:
+    bb = py_trees.blackboard.Blackboard
+    passed = bb.get(keys.PASSED) if bb.exists(keys.PASSED) else ()
+    by_index = {p.waypoint: p.t for p in passed}
+    return [by_index.get(i) for i in range(len(mission.route))]
+
+
+def recorded_plans() -> list[Any]:
+    bb = py_trees.blackboard.Blackboard
+    return list(bb.get(keys.PLANS)) if bb.exists(keys.PLANS) else []
+
+
+def execute(req: RunRequest) -> RunResult:
+    """Run the mission of ``req`` to the end. Raises InputError for bad input,
+    KeyboardInterrupt (after stopping the wheels and writing the report) on Ctrl-C/SIGTERM."""
+    mission = req.mission
+    seed = req.seed if req.seed is not None else (mission.sim.seed if mission.sim else 0)
+    root = build_mission_tree(mission)
+    keys.reset()
+    env = make_environment(mission, req, seed)
+    report = RunReport(
+        mission=mission.name, seed=seed if req.robot == "sim" else None,
+        robot=req.robot, camera=req.camera,
+        waypoints=[WaypointResult(colour=c, side=mission.side_of(c)) for c in mission.route],
+    )
+    events = EventLog(req.events_path)
+    options = RunOptions(
+        rate_hz=mission.control.rate_hz,
+        max_time_s=req.max_time_s if req.max_time_s is not None else default_max_time_s(mission),
+        realtime=req.realtime, sleep=req.robot != "sim",
+        tree_style=req.tree_style, view_out=req.out,
+    )
+    result = RunResult(report=report, environment=env)
+    try:
+        run_tree(
+            root, env, report, events, options,
+            setup_kwargs={"robot": env.robot, "clock": env.clock, "mission": mission,
+                          "camera": env.camera},
+            status_line=lambda: status_line(env),
+            waypoint_outcomes=lambda: waypoint_outcomes(mission, report),
+            classify=_classify,
+        )
+    finally:
+        try:
+            env.close()
+        finally:
+            result.plans = recorded_plans()
+            _fill_ground_truth(mission, env, report)
+            events.close()
+            if req.report_path is not None:
+                report.write(req.report_path)
+            if req.plot_path is not None:
+                _plot(mission, env, result, req.plot_path)
+    return result
+
+
+def _classify(root: py_trees.behaviour.Behaviour) -> tuple[bool, str]:
+    failure = failure_reason(root)
+    if failure is None:
+        return False, f"{root.name} failed"
+    return failure.aborted, failure.reason
+
+
+def _fill_ground_truth(mission: Mission, env: Environment, report: RunReport) -> None:
+    from marknav.sim.environment import SimEnvironment, waypoint_truth
+
+    if not isinstance(env, SimEnvironment):
+        return
+    truth = waypoint_truth(env.truth, env.world, list(mission.route), pass_times(mission))
+    for wp, (side, clearance, _idx) in zip(report.waypoints, truth, strict=True):
+        wp.passed_on = side
+        wp.min_clearance_mm = clearance
+    report.collisions = len(env.truth.collisions)
+
+
+def _plot(mission: Mission, env: Environment, result: RunResult, path: Path) -> None:
+    from marknav.sim.environment import SimEnvironment
+    from marknav.sim.plot import plot_run
+
+    if not isinstance(env, SimEnvironment):
+        raise InputError("--plot draws the simulator's ground truth; it needs --robot sim",
+                         field="--plot")
+    plot_run(mission, env.world, env.truth, result.plans, result.report, path)
+
+
+def load(path: str) -> Mission:
+    return load_mission(path)
+
+
+def summary(report: RunReport) -> str:
+    """One line: what happened."""
+    passed = sum(1 for w in report.waypoints if w.outcome == "passed")
+    speed = report.speedup
+    speed_s = f", {speed:.1f}x real time" if speed is not None and math.isfinite(speed) else ""
+    line = (f"{report.mission}: {report.outcome} — {report.reason} ({passed}/"
+            f"{len(report.waypoints)} waypoints, {report.collisions} collisions, "
+            f"{report.sim_time_s:.1f} s{speed_s})")
+    if report.outcome == ABORTED and report.reason.startswith("interrupted"):
+        line += "; wheels stopped"
+    return line
+
+
+def default_run_dir(mission: Mission) -> Path:
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    return Path("runs") / f"{mission.name}-{stamp}"
