@@ -64,7 +64,7 @@ Loc = tuple[str | int, ...]
 NodeKind = Literal["composite", "decorator", "leaf"]
 
 #: Modules whose ``register(registry)`` adds node types to :func:`default_registry`.
-BEHAVIOUR_MODULES: tuple[str, ...] = ()
+BEHAVIOUR_MODULES: tuple[str, ...] = ("marknav.behaviours.nodes",)
 
 #: Error type of an unknown key found by :func:`model_problems` (the message carries the
 #: did-you-mean); the mission loader points these at the key, like yamlio's own unknown keys.

@@ -25,6 +25,24 @@ def _rgb(bgr: Any) -> tuple[float, float, float]:
     return (r / 255.0, g / 255.0, b / 255.0)
 
 
+def _believed_to_true(
+    pts: np.ndarray, believed: Any, truth: GroundTruth, ts: np.ndarray, t: float
+) -> np.ndarray:
+    """Move a plan made in the odometry frame to where the robot really was when it planned.
+
+    Odometry drifts (wheel mismatch and slip are invisible to encoders), so a plan drawn in the
+    believed frame would float away from the driven path; this draws it as the robot meant it.
+    """
+    if len(ts) == 0:
+        return pts
+    k = int(np.clip(np.searchsorted(ts, t), 0, len(ts) - 1))
+    tx, ty = truth.xy[k]
+    dth = truth.theta[k] - believed.theta
+    c, s = np.cos(dth), np.sin(dth)
+    rel = pts - np.array([believed.x, believed.y])
+    return np.column_stack([tx + c * rel[:, 0] - s * rel[:, 1], ty + s * rel[:, 0] + c * rel[:, 1]])
+
+
 def plot_run(
     mission: Mission,
     world: World,
@@ -61,10 +79,11 @@ def plot_run(
         side = mission.side_of(m.colour) if m.colour in palette else "?"
         ax.annotate(f"{i + 1}: {m.colour}\npass on its {side}", m.xy, xytext=(12, -4),
                     textcoords="offset points", fontsize=8)
+    ts = np.asarray(truth.t)
     for k, rec in enumerate(plans):
-        pts = rec.plan.sample(20.0)
-        ax.plot(pts[:, 0], pts[:, 1], "--", color="tab:purple", lw=1,
-                label="planned Bézier bypass" if k == 0 else None)
+        pts = _believed_to_true(rec.plan.sample(20.0), rec.plan.start_pose, truth, ts, rec.t)
+        ax.plot(pts[:, 0], pts[:, 1], "--", color="tab:purple", lw=2, zorder=4,
+                label="planned Bézier bypass (placed from the true pose)" if k == 0 else None)
     xy = np.asarray(truth.xy, dtype=float).reshape(-1, 2)
     if len(xy):
         ax.plot(xy[:, 0], xy[:, 1], color="black", lw=1.5, label="driven path (ground truth)")

@@ -1,16 +1,67 @@
 """pytest plugin (registered through the ``pytest11`` entry point): marknav's fixtures.
 
-Installing marknav makes these fixtures available to any test suite.
+Installing marknav makes these fixtures available to any test suite: ``manual_clock``,
+``fake_robot``, ``fake_perception``, ``blackboard`` and ``mission_factory`` (see
+:mod:`marknav.testing`). The heavier imports happen inside the fixtures, so merely having marknav
+installed costs other test suites nothing.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
+from typing import TYPE_CHECKING, Any
+
 import pytest
 
 from marknav.clock import ManualClock
+
+if TYPE_CHECKING:
+    from marknav.missions.schema import Mission
+    from marknav.testing.perception import FakePerception
+    from marknav.testing.robot import FakeRobot
 
 
 @pytest.fixture
 def manual_clock() -> ManualClock:
     """A clock at t = 0 that moves only with ``advance(dt)``."""
     return ManualClock()
+
+
+@pytest.fixture
+def fake_robot(manual_clock: ManualClock) -> FakeRobot:
+    """A :class:`~marknav.testing.FakeRobot` on ``manual_clock``: connected (``ready``), at the
+    origin facing +y, wheel base 235 mm, the real safety layer with 0.3 s / 0.2 s watchdogs."""
+    from marknav.testing.robot import FakeRobot
+
+    return FakeRobot(clock=manual_clock)
+
+
+@pytest.fixture
+def fake_perception() -> FakePerception:
+    """A :class:`~marknav.testing.FakePerception` named ``Perception``, with no marks yet:
+    ``fake_perception.place("red", x_mm=0, y_mm=1500)`` puts one in the world."""
+    from marknav.testing.perception import FakePerception
+
+    return FakePerception()
+
+
+@pytest.fixture
+def blackboard() -> Iterator[None]:
+    """py_trees' blackboard is process-global: cleared before and after the test."""
+    import py_trees
+
+    py_trees.blackboard.Blackboard.clear()
+    yield
+    py_trees.blackboard.Blackboard.clear()
+
+
+@pytest.fixture
+def mission_factory() -> Callable[..., Mission]:
+    """:func:`marknav.testing.make_mission`: a minimal valid mission (route red, green, red), with
+    overrides merged in: ``mission_factory(route=["blue"], navigation={"clearance_mm": 350})``."""
+    from marknav.testing.missions import make_mission
+
+    def factory(**overrides: Any) -> Mission:
+        return make_mission(**overrides)
+
+    return factory

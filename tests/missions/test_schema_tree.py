@@ -76,7 +76,7 @@ def test_unknown_node_type_without_a_close_match_lists_the_types(tmp_path: Path)
     errors = tree_errors(tmp_path, "tree: {type: Zzz}\n")
     assert errors == [
         "M:6:14: tree.type: unknown node type 'Zzz' (known: "
-        + ", ".join(builtin_registry().names()) + ")"
+        + ", ".join(default_registry().names()) + ")"
     ]
 
 
@@ -377,7 +377,7 @@ def test_registered_leaf_is_checked_and_built(tmp_path: Path) -> None:
     # Not in the default registry.
     assert tree_errors(tmp_path, tree) == [
         "M:6:56: tree.children[0].type: unknown node type 'Wave' (known: "
-        + ", ".join(builtin_registry().names()) + ")"
+        + ", ".join(default_registry().names()) + ")"
     ]
 
 

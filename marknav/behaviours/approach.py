@@ -1,0 +1,170 @@
+"""Drive toward the target while keeping it in the middle of the image (paper §4.6, first step).
+
+"If the distance between the mobile robot and the nearest mark is greater than a desired
+threshold then the mobile robot is moving straight to the mark with an effort to hold the center
+of the mark (in the image) in the center of the image."
+
+Steering is proportional to the angle of the mark's centre off the optical axis, taken from the
+pixel error e = x_px − c_x: α = atan(−e / f) (positive to the left), ω = K·α with K =
+``steer_gain`` (1/s), capped at ``max_turn_rate_deg_s``. The forward speed ramps from
+``approach_speed_mm_s`` down to ``min_speed_fraction`` of it over the last ``slow_band_mm`` before
+the bypass threshold, and is multiplied by cos α so the robot turns before it runs. Wheel speeds
+are v ∓ ω·b/2 (eqs. 25–27), scaled together when one exceeds ``robot.max_speed_mm_s``
+(:func:`marknav.planning.kinematics.scale_to_limit`).
+
+Between frames (the target's sighting is older than the latest frame) the mark's world estimate
+and the odometry pose stand in for the pixels. SUCCESS when the estimated distance along the
+heading (the paper's d_yp) is at most ``bypass_distance_mm``; FAILURE when the target has not been
+seen for ``lost_after_s``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+from py_trees.common import Status
+
+from marknav.behaviours import keys
+from marknav.behaviours.base import DrivingBehaviour, SetupError, check_positive, pick
+from marknav.planning.kinematics import WheelSpeeds, scale_to_limit, to_robot_frame
+
+__all__ = ["THRESHOLD_SPEED_FRACTION", "ApproachWhileCentring", "centring_command"]
+
+#: Speed at the bypass threshold as a fraction of the approach speed; the bypass cruises at the
+#: same fraction by default, so the hand-over is smooth.
+THRESHOLD_SPEED_FRACTION = 0.8
+
+
+def centring_command(
+    *,
+    angle_rad: float,
+    forward_mm: float,
+    speed_mm_s: float,
+    bypass_distance_mm: float,
+    steer_gain: float,
+    max_turn_rate: float,
+    slow_band_mm: float,
+    min_speed_fraction: float,
+    wheel_base_mm: float,
+    max_wheel_mm_s: float,
+) -> WheelSpeeds:
+    """Wheel speeds that steer toward a mark ``angle_rad`` off the heading (positive left).
+
+    ω = clamp(K·α, ±ω_max); v = speed · ramp · max(cos α, 0), ramp going linearly from 1 at
+    ``slow_band_mm`` beyond the threshold to ``min_speed_fraction`` at it. Pure function.
+    """
+    omega = max(-max_turn_rate, min(max_turn_rate, steer_gain * angle_rad))
+    beyond = (forward_mm - bypass_distance_mm) / slow_band_mm if slow_band_mm > 0 else 1.0
+    ramp = min(1.0, max(min_speed_fraction,
+                        min_speed_fraction + (1.0 - min_speed_fraction) * beyond))
+    v = speed_mm_s * ramp * max(math.cos(angle_rad), 0.0)
+    half = 0.5 * wheel_base_mm
+    return scale_to_limit(WheelSpeeds(left=v - omega * half, right=v + omega * half),
+                          max_wheel_mm_s)
+
+
+class ApproachWhileCentring(DrivingBehaviour):
+    """Approach the target, keeping it centred in the image; SUCCESS at the bypass threshold.
+
+    Args (each ``None`` takes the mission's value):
+        speed_mm_s: cruising speed (``navigation.approach_speed_mm_s``).
+        bypass_distance_mm: threshold (``navigation.bypass_distance_mm``).
+        lost_after_s: FAILURE when the target is unseen this long (``navigation.lost_after_s``).
+        steer_gain: turn rate per radian off-centre, 1/s (2.0: the error halves in ~0.35 s).
+        max_turn_rate_deg_s: cap on the turn rate.
+        slow_band_mm: slow down over this distance before the threshold.
+        min_speed_fraction: speed at the threshold, as a fraction of ``speed_mm_s`` (0.8, the
+            bypass's default cruising fraction).
+
+    Setup: ``robot``, ``clock``, ``mission`` (wheel base, speed limit, focal length).
+    """
+
+    READS: ClassVar[tuple[str, ...]] = (keys.TARGET, keys.FRAME)
+
+    def __init__(
+        self,
+        name: str = "Approach",
+        *,
+        speed_mm_s: float | None = None,
+        bypass_distance_mm: float | None = None,
+        lost_after_s: float | None = None,
+        steer_gain: float = 2.0,
+        max_turn_rate_deg_s: float = 60.0,
+        slow_band_mm: float = 500.0,
+        min_speed_fraction: float = THRESHOLD_SPEED_FRACTION,
+    ) -> None:
+        super().__init__(name)
+        self._speed = check_positive(speed_mm_s, "speed_mm_s")
+        self._threshold = check_positive(bypass_distance_mm, "bypass_distance_mm")
+        self._lost = check_positive(lost_after_s, "lost_after_s")
+        self.steer_gain = float(check_positive(steer_gain, "steer_gain") or 0.0)
+        self.max_turn_rate = math.radians(
+            check_positive(max_turn_rate_deg_s, "max_turn_rate_deg_s") or 0.0)
+        if not (math.isfinite(slow_band_mm) and slow_band_mm >= 0):
+            raise ValueError(f"slow_band_mm must be a number >= 0, got {slow_band_mm!r}")
+        if not 0.0 < min_speed_fraction <= 1.0:
+            raise ValueError(f"min_speed_fraction must be in (0, 1], got {min_speed_fraction!r}")
+        self.slow_band_mm = float(slow_band_mm)
+        self.min_speed_fraction = float(min_speed_fraction)
+        self.settings: dict[str, float] = {}
+
+    def configure(self, **kwargs: Any) -> None:
+        m = self.mission
+        owner = self._owner
+        self.settings = {
+            "speed_mm_s": pick(self._speed, m.navigation.approach_speed_mm_s if m else None,
+                               owner=owner, what="approach speed"),
+            "bypass_distance_mm": pick(self._threshold,
+                                       m.navigation.bypass_distance_mm if m else None,
+                                       owner=owner, what="bypass_distance_mm"),
+            "lost_after_s": pick(self._lost, m.navigation.lost_after_s if m else None,
+                                 owner=owner, what="lost_after_s"),
+            "wheel_base_mm": pick(None, m.robot.wheel_base_mm if m else None, owner=owner,
+                                  what="robot.wheel_base_mm"),
+            "max_wheel_mm_s": pick(None, m.robot.max_speed_mm_s if m else None, owner=owner,
+                                   what="robot.max_speed_mm_s"),
+            "focal_px": pick(None, m.camera.focal_px if m else None, owner=owner,
+                             what="camera.focal_px"),
+        }
+
+    def initialise(self) -> None:
+        self.feedback_message = "starting"
+
+    def update(self) -> Status:
+        if not self.settings:
+            raise SetupError(f"{self._owner}: not set up (tree.setup(mission=...))")
+        s = self.settings
+        target = self.target()
+        if target is None:
+            return self.fail("no target selected")
+        seen = target.sighting
+        if seen is None or target.world is None:
+            return self.fail(f"{target.label} not seen")
+        age = self.now() - seen.t
+        if age > s["lost_after_s"]:
+            return self.fail(f"lost {target.label}: unseen for {age:.2f} s")
+        frame: keys.FrameInfo | None = self.read(keys.FRAME)
+        if frame is not None and seen.t >= frame.t:
+            forward = seen.forward_mm
+            angle = math.atan2(-seen.pixel_error, s["focal_px"])
+        else:  # between frames: dead-reckon the mark from odometry
+            forward, left = to_robot_frame(self.robot.pose(), target.world)
+            angle = math.atan2(left, forward)
+        if forward <= s["bypass_distance_mm"]:
+            self.feedback_message = (f"{target.label} at {forward / 1000.0:.2f} m: "
+                                     "bypass threshold reached")
+            return Status.SUCCESS
+        cmd = centring_command(
+            angle_rad=angle, forward_mm=forward, speed_mm_s=s["speed_mm_s"],
+            bypass_distance_mm=s["bypass_distance_mm"], steer_gain=self.steer_gain,
+            max_turn_rate=self.max_turn_rate, slow_band_mm=self.slow_band_mm,
+            min_speed_fraction=self.min_speed_fraction, wheel_base_mm=s["wheel_base_mm"],
+            max_wheel_mm_s=s["max_wheel_mm_s"],
+        )
+        self.drive(left=cmd.left, right=cmd.right)
+        deg = math.degrees(angle)
+        self.feedback_message = (f"{target.label}: {forward / 1000.0:.2f} m ahead, "
+                                 f"{abs(deg):.0f}° {'left' if deg > 0 else 'right'}, "
+                                 f"{cmd.linear:.0f} mm/s")
+        return Status.RUNNING

@@ -1,0 +1,251 @@
+"""The blackboard contract: every key marknav's behaviours share, and the values stored there.
+
+All keys live under ``/marknav/`` on py_trees' process-global blackboard. Values are frozen
+dataclasses or tuples of them; a writer replaces a value, it never mutates one, so a reader may
+keep what it read.
+
+======================  ============================  ========================================
+key                     value                         written by
+======================  ============================  ========================================
+``/marknav/frame``      :class:`FrameInfo`            Perception, each processed frame
+``/marknav/marks``      ``tuple[SeenMark, ...]``      Perception: the marks of the latest frame
+``/marknav/last_seen``  ``dict[str, SeenMark]``       Perception: latest sighting per colour
+``/marknav/target``     :class:`Target` or ``None``   SelectTarget; Perception refreshes its
+                                                      sighting; BezierBypass locks it
+``/marknav/passed``     ``tuple[PassedWaypoint, …]``  BezierBypass, in the order passed
+``/marknav/plans``      ``tuple[PlanRecord, ...]``    BezierBypass: every plan and re-plan
+``/marknav/driver``     :class:`Driver` or ``None``   the behaviour driving the wheels
+``/marknav/recovery``   :class:`Recovery`             BackOff (bump recoveries)
+======================  ============================  ========================================
+
+Frames and units follow ``docs/architecture.md``: robot frame x forward / y left, world frame
+x east / y north, millimetres, radians, seconds of the mission clock.
+
+Because the blackboard outlives a tree, a program that runs several missions in one process must
+call :func:`reset` before each run (the ``blackboard`` pytest fixture clears it for tests).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import py_trees
+
+from marknav.planning.bezier import BypassPlan
+
+__all__ = [
+    "ALL_KEYS",
+    "DRIVER",
+    "FRAME",
+    "LAST_SEEN",
+    "MARKS",
+    "NAMESPACE",
+    "PASSED",
+    "PLANS",
+    "RECOVERY",
+    "TARGET",
+    "Driver",
+    "FrameInfo",
+    "PassedWaypoint",
+    "PlanRecord",
+    "Recovery",
+    "SeenMark",
+    "Side",
+    "Target",
+    "image_centre",
+    "read",
+    "reset",
+    "snapshot",
+]
+
+Side = Literal["left", "right"]
+
+NAMESPACE = "/marknav"
+FRAME = f"{NAMESPACE}/frame"
+MARKS = f"{NAMESPACE}/marks"
+LAST_SEEN = f"{NAMESPACE}/last_seen"
+TARGET = f"{NAMESPACE}/target"
+PASSED = f"{NAMESPACE}/passed"
+PLANS = f"{NAMESPACE}/plans"
+DRIVER = f"{NAMESPACE}/driver"
+RECOVERY = f"{NAMESPACE}/recovery"
+
+#: Every key above, for clients that read them all and for :func:`reset`.
+ALL_KEYS: tuple[str, ...] = (FRAME, MARKS, LAST_SEEN, TARGET, PASSED, PLANS, DRIVER, RECOVERY)
+
+
+@dataclass(frozen=True)
+class SeenMark:
+    """One mark seen in one frame: robot frame (at the time of the tick), world frame, pixels.
+
+    ``forward_mm``/``left_mm`` are the estimate relative to the robot (eqs. 19/2 and 21),
+    ``world_x``/``world_y`` the same point placed with the robot's odometry pose. ``x_px`` is the
+    image column of the mark's centre and ``radius_px`` its semi-major axis in a frame
+    ``image_width`` pixels wide; ``t`` is the mission-clock time the frame was processed.
+    """
+
+    colour: str
+    forward_mm: float
+    left_mm: float
+    world_x: float
+    world_y: float
+    x_px: float
+    radius_px: float
+    image_width: int
+    t: float
+
+    @property
+    def range_mm(self) -> float:
+        """Straight-line distance from the robot to the mark centre (mm)."""
+        return math.hypot(self.forward_mm, self.left_mm)
+
+    @property
+    def bearing_rad(self) -> float:
+        """Direction of the mark from the robot's heading, positive to the left (rad)."""
+        return math.atan2(self.left_mm, self.forward_mm)
+
+    @property
+    def world(self) -> tuple[float, float]:
+        """``(world_x, world_y)``."""
+        return (self.world_x, self.world_y)
+
+    @property
+    def pixel_error(self) -> float:
+        """Column of the mark centre relative to the image centre, positive to the right (px).
+
+        Pixel centres sit at integer columns, so the centre of a W-pixel row is (W − 1) / 2.
+        """
+        return self.x_px - image_centre(self.image_width)
+
+
+def image_centre(width: int) -> float:
+    """Column of the image centre for a row ``width`` pixels wide (pixel centres at integers)."""
+    return 0.5 * (width - 1)
+
+
+@dataclass(frozen=True)
+class FrameInfo:
+    """The latest frame perception processed: source index, mission-clock time it was processed,
+    size, number of marks found."""
+
+    index: int
+    t: float
+    width: int
+    height: int
+    marks: int
+
+
+@dataclass(frozen=True)
+class Target:
+    """The mark the robot is heading for: the current waypoint's mark.
+
+    ``waypoint`` is its index in the route (0-based; −1 when the waypoint was built without one)
+    and ``waypoint_id`` the identity of the Waypoint subtree that selected it. ``side`` is the pass
+    side (``left``: the robot passes on the mark's left, with the mark on its right).
+    ``sighting`` is the latest sighting of *this* mark (``None``: not seen yet) and
+    ``world_x``/``world_y`` the best estimate of its world position. Once ``locked`` (the bypass
+    has started) the mark is followed by world position, never swapped for another mark of the
+    same colour.
+    """
+
+    waypoint: int
+    waypoint_id: str
+    colour: str
+    side: Side
+    sighting: SeenMark | None = None
+    world_x: float | None = None
+    world_y: float | None = None
+    locked: bool = False
+
+    @property
+    def world(self) -> tuple[float, float] | None:
+        """The estimated world position, or ``None`` when the mark was never seen."""
+        if self.world_x is None or self.world_y is None:
+            return None
+        return (self.world_x, self.world_y)
+
+    @property
+    def label(self) -> str:
+        """``red #2`` (1-based waypoint number), for feedback messages."""
+        return f"{self.colour} #{self.waypoint + 1}" if self.waypoint >= 0 else self.colour
+
+
+@dataclass(frozen=True)
+class PassedWaypoint:
+    """A waypoint whose mark was passed: when, on which side, where the robot believed it was."""
+
+    waypoint: int
+    waypoint_id: str
+    colour: str
+    side: Side
+    t: float
+    mark_x: float
+    mark_y: float
+
+
+@dataclass(frozen=True)
+class PlanRecord:
+    """A bypass plan as it was made: for the run plot and the event log.
+
+    ``reason`` is ``"initial"``, ``"re-plan"`` (a closer sighting) or ``"resumed"`` (planned
+    again from the current pose after an interruption, e.g. a bump recovery); ``plan.curves`` are
+    the two quadratic Béziers (world frame), ``plan.sample(step_mm)`` gives points to draw.
+    """
+
+    waypoint: int
+    colour: str
+    side: Side
+    t: float
+    reason: str
+    plan: BypassPlan
+
+
+@dataclass(frozen=True)
+class Driver:
+    """The behaviour that last commanded the wheels (by py_trees id), and since when.
+
+    A behaviour's ``terminate()`` stops the wheels only while it is the driver, so a preempted
+    behaviour never cancels the command of the one that preempted it.
+    """
+
+    id: str
+    name: str
+    since: float
+
+
+@dataclass(frozen=True)
+class Recovery:
+    """Bump recoveries so far in this mission, and whether one is under way."""
+
+    count: int = 0
+    active: bool = False
+    started_t: float | None = None
+
+
+def read(client: py_trees.blackboard.Client, key: str, default: Any = None) -> Any:
+    """``client.get(key)``, or ``default`` while the key is not set yet."""
+    try:
+        return client.get(key)
+    except KeyError:
+        return default
+
+
+def snapshot() -> dict[str, Any]:
+    """Every ``/marknav/`` key that is set, with its value (for logs, plots and tests)."""
+    out: dict[str, Any] = {}
+    for key in ALL_KEYS:
+        if py_trees.blackboard.Blackboard.exists(key):
+            out[key] = py_trees.blackboard.Blackboard.get(key)
+    return out
+
+
+def reset() -> None:
+    """Unset every ``/marknav/`` key: route progress, target, plans, recoveries.
+
+    Call it before each run when several missions run in one process; the blackboard is global.
+    Registered clients keep their access rights.
+    """
+    for key in ALL_KEYS:
+        py_trees.blackboard.Blackboard.unset(key)

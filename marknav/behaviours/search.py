@@ -1,0 +1,124 @@
+"""Turn on the spot until the target is in view again (the lost-target branch of the route).
+
+Which way to turn:
+
+1. toward where the target was last seen: its world estimate, put in the robot frame with the
+   current odometry pose, is on the left (turn counter-clockwise) or on the right (clockwise);
+2. when it was never seen, toward where the route says it should be. A mark to be passed on its
+   **left** is one the robot will drive by with the mark on its **right**: a course laid for that
+   has the mark ahead-right of the robot's path, so turn **right** (clockwise). A mark to be passed
+   on its right lies ahead-left: turn left. In a slalom this is also where the next mark is
+   after the previous bypass, which ends parallel to the original heading.
+
+The turn rate is ``navigation.search.turn_speed_deg_s`` (wheels ∓ω·b/2, eq. 27). SUCCESS as soon as
+the target is seen after the search started; FAILURE after ``navigation.search.timeout_s`` or a
+full turn (360° of heading change, summed from odometry), whichever comes first.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+from py_trees.common import Status
+
+from marknav.behaviours import keys
+from marknav.behaviours.base import DrivingBehaviour, SetupError, check_positive, pick
+from marknav.planning.kinematics import Pose, to_robot_frame, wrap_angle
+
+__all__ = ["SearchWhenLost", "search_direction"]
+
+LEFT = 1  # counter-clockwise
+RIGHT = -1  # clockwise
+
+
+def search_direction(target: keys.Target, pose: Pose) -> int:
+    """+1 (turn left, CCW) or −1 (turn right, CW): toward the last sighting, else by pass side."""
+    world = target.world
+    if world is not None:
+        _, left = to_robot_frame(pose, world)
+        if left > 0.0:
+            return LEFT
+        if left < 0.0:
+            return RIGHT
+    return RIGHT if target.side == "left" else LEFT
+
+
+class SearchWhenLost(DrivingBehaviour):
+    """Turn in place toward where the target should be until it is seen again.
+
+    Args (``None`` takes the mission's ``navigation.search``):
+        turn_speed_deg_s: turn rate, degrees per second.
+        timeout_s: FAILURE after this long.
+
+    Setup: ``robot``, ``clock``, ``mission`` (wheel base and the defaults above).
+    """
+
+    READS: ClassVar[tuple[str, ...]] = (keys.TARGET,)
+
+    def __init__(
+        self,
+        name: str = "Search",
+        *,
+        turn_speed_deg_s: float | None = None,
+        timeout_s: float | None = None,
+    ) -> None:
+        super().__init__(name)
+        self._turn_override = check_positive(turn_speed_deg_s, "turn_speed_deg_s")
+        self._timeout_override = check_positive(timeout_s, "timeout_s")
+        self.turn_speed_deg_s: float | None = turn_speed_deg_s
+        self.timeout_s: float | None = timeout_s
+        self.wheel_base_mm: float | None = None
+        self.direction = 0
+        self._t0 = 0.0
+        self._last_theta = 0.0
+        self.turned_rad = 0.0
+
+    def configure(self, **kwargs: Any) -> None:
+        m = self.mission
+        self.turn_speed_deg_s = pick(
+            self._turn_override, m.navigation.search.turn_speed_deg_s if m else None,
+            owner=self._owner, what="search turn speed")
+        self.timeout_s = pick(self._timeout_override,
+                              m.navigation.search.timeout_s if m else None,
+                              owner=self._owner, what="search timeout")
+        self.wheel_base_mm = pick(None, m.robot.wheel_base_mm if m else None,
+                                  owner=self._owner, what="robot.wheel_base_mm")
+
+    def initialise(self) -> None:
+        self._t0 = self.now()
+        pose = self.robot.pose()
+        self._last_theta = pose.theta
+        self.turned_rad = 0.0
+        target = self.target()
+        self.direction = search_direction(target, pose) if target is not None else 0
+        self.feedback_message = "starting"
+
+    def update(self) -> Status:
+        if self.turn_speed_deg_s is None or self.timeout_s is None or self.wheel_base_mm is None:
+            raise SetupError(f"{self._owner}: not set up (tree.setup(mission=...))")
+        target = self.target()
+        if target is None or self.direction == 0:
+            return self.fail("no target selected")
+        elapsed = self.now() - self._t0
+        seen = target.sighting
+        if seen is not None and seen.t >= self._t0:
+            self.feedback_message = (f"found {target.label} after "
+                                     f"{math.degrees(self.turned_rad):.0f}° ({elapsed:.1f} s)")
+            return Status.SUCCESS
+        theta = self.robot.pose().theta
+        self.turned_rad += abs(wrap_angle(theta - self._last_theta))
+        self._last_theta = theta
+        if self.turned_rad >= math.tau:
+            return self.fail(f"{target.label} not found in a full turn ({elapsed:.1f} s)")
+        if elapsed >= self.timeout_s:
+            return self.fail(f"{target.label} not found in {self.timeout_s:g} s "
+                             f"(turned {math.degrees(self.turned_rad):.0f}°)")
+        omega = self.direction * math.radians(self.turn_speed_deg_s)
+        half = 0.5 * self.wheel_base_mm
+        self.drive(left=-omega * half, right=omega * half)
+        way = "left" if self.direction == LEFT else "right"
+        self.feedback_message = (f"looking for {target.label}: turning {way}, "
+                                 f"{math.degrees(self.turned_rad):.0f}°, "
+                                 f"{elapsed:.1f}/{self.timeout_s:g} s")
+        return Status.RUNNING

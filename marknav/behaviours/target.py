@@ -1,0 +1,265 @@
+"""Which mark is the target, and is it in view: target selection and association (paper §4.6).
+
+The paper drives toward "the nearest mark". With a route of colours the target is the next
+route colour's nearest visible mark, with two refinements:
+
+- marks already passed (their world position within :func:`gate_mm` of a passed waypoint's mark
+  of the same colour) are never selected again, so a route ``red, green, red`` does not turn back
+  to the first red when it comes into view;
+- once the bypass has started the target is *locked*: later sightings are associated by world
+  position (nearest to the last estimate, within the gate), never swapped for another mark of the
+  same colour that happens to be nearer.
+
+:func:`associate` is the pure rule; Perception applies it every frame to refresh
+``/marknav/target``. The behaviours here: :class:`SelectTarget` (sets the target of a waypoint),
+:class:`TargetSeen` (``Seen?``: the target was seen within ``lost_after_s``),
+:class:`TargetLocked` (``Bypassing?``: this waypoint's bypass already started) and
+:class:`WaypointPassed` (``Passed?``: route progress, which survives a recovery interrupting the
+route).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import replace
+from typing import Any, ClassVar
+
+from py_trees.common import Status
+
+from marknav.behaviours import keys
+from marknav.behaviours.base import MarknavBehaviour, SetupError, check_positive, pick
+
+__all__ = [
+    "GATE_MIN_MM",
+    "SelectTarget",
+    "TargetLocked",
+    "TargetSeen",
+    "WaypointPassed",
+    "associate",
+    "gate_mm",
+    "is_passed_mark",
+    "nearest_of_colour",
+    "waypoint_id_for",
+]
+
+#: Smallest association gate (mm): two sightings closer than this are the same mark.
+GATE_MIN_MM = 250.0
+#: The gate grows with range, as the range error does (δd ≈ d²·δr / (f·R)).
+GATE_RANGE_FRACTION = 0.2
+
+
+def gate_mm(range_mm: float) -> float:
+    """Association gate for a sighting ``range_mm`` away: max(250 mm, 20 % of the range)."""
+    return max(GATE_MIN_MM, GATE_RANGE_FRACTION * range_mm)
+
+
+def waypoint_id_for(index: int, colour: str) -> str:
+    """The identity of the route's waypoint ``index`` (0-based): ``"waypoint-1-red"``."""
+    return f"waypoint-{index}-{colour}"
+
+
+def is_passed_mark(mark: keys.SeenMark, passed: Iterable[keys.PassedWaypoint]) -> bool:
+    """Whether ``mark`` is (within the gate) a mark of its colour that was already passed."""
+    gate = gate_mm(mark.range_mm)
+    return any(
+        p.colour == mark.colour
+        and math.hypot(mark.world_x - p.mark_x, mark.world_y - p.mark_y) <= gate
+        for p in passed
+    )
+
+
+def nearest_of_colour(
+    marks: Sequence[keys.SeenMark],
+    colour: str,
+    passed: Iterable[keys.PassedWaypoint] = (),
+) -> keys.SeenMark | None:
+    """The nearest mark of ``colour`` that is not an already passed one, or ``None``."""
+    done = tuple(passed)
+    candidates = [m for m in marks if m.colour == colour and not is_passed_mark(m, done)]
+    return min(candidates, key=lambda m: m.range_mm, default=None)
+
+
+def associate(
+    marks: Sequence[keys.SeenMark],
+    target: keys.Target,
+    passed: Iterable[keys.PassedWaypoint] = (),
+) -> keys.SeenMark | None:
+    """The sighting of ``target`` among ``marks`` (one frame), or ``None`` if it is not there.
+
+    Unlocked: the nearest not-yet-passed mark of the target's colour. Locked (bypass started):
+    the mark of that colour nearest to the target's world estimate, if within the gate.
+    """
+    done = tuple(passed)
+    if not target.locked or target.world is None:
+        return nearest_of_colour(marks, target.colour, done)
+    tx, ty = target.world
+    best: keys.SeenMark | None = None
+    best_d = math.inf
+    for m in marks:
+        if m.colour != target.colour:
+            continue
+        d = math.hypot(m.world_x - tx, m.world_y - ty)
+        if d <= gate_mm(m.range_mm) and d < best_d:
+            best, best_d = m, d
+    return best
+
+
+def with_sighting(target: keys.Target, sighting: keys.SeenMark) -> keys.Target:
+    """``target`` updated with a new sighting of its mark (and its world position)."""
+    return replace(target, sighting=sighting, world_x=sighting.world_x, world_y=sighting.world_y)
+
+
+def describe(mark: keys.SeenMark | None) -> str:
+    """``1.52 m, 4° right`` for feedback messages."""
+    if mark is None:
+        return "not in view"
+    deg = math.degrees(mark.bearing_rad)
+    side = "left" if deg > 0 else "right"
+    return f"{mark.range_mm / 1000.0:.2f} m, {abs(deg):.0f}° {side}"
+
+
+class SelectTarget(MarknavBehaviour):
+    """Make the waypoint's mark the target: its colour, pass side and nearest visible mark.
+
+    Always SUCCESS (the mark may be out of view: then ``Seen?`` fails and the robot searches).
+    If this waypoint's bypass already started (target locked), the locked target is kept, so a
+    waypoint interrupted by a bump recovery resumes with the same physical mark.
+
+    Args:
+        colour: the route colour.
+        side: ``left``/``right``; default: the mission's side for the colour.
+        waypoint: index of the waypoint in the route (0-based), for messages and the report.
+        waypoint_id: identity shared with the waypoint's ``Passed?``; default from
+            ``waypoint`` and ``colour``.
+    """
+
+    READS: ClassVar[tuple[str, ...]] = (keys.MARKS, keys.PASSED)
+    WRITES: ClassVar[tuple[str, ...]] = (keys.TARGET,)
+
+    def __init__(
+        self,
+        name: str = "SelectTarget",
+        *,
+        colour: str,
+        side: keys.Side | None = None,
+        waypoint: int = -1,
+        waypoint_id: str | None = None,
+    ) -> None:
+        super().__init__(name)
+        if side not in (None, "left", "right"):
+            raise ValueError(f"side must be 'left' or 'right', got {side!r}")
+        self.colour = colour
+        self.waypoint = waypoint
+        self.waypoint_id = waypoint_id or waypoint_id_for(waypoint, colour)
+        self._side_override = side
+        self.side: keys.Side | None = side
+
+    def configure(self, **kwargs: Any) -> None:
+        from_mission: keys.Side | None = None
+        if self.mission is not None and self._side_override is None:
+            try:
+                from_mission = self.mission.side_of(self.colour)
+            except KeyError as exc:
+                raise SetupError(f"{self._owner}: {exc.args[0]}") from None
+        self.side = pick(self._side_override, from_mission, owner=self._owner,
+                         what=f"pass side for {self.colour!r}")
+
+    def update(self) -> Status:
+        if self.side is None:
+            raise SetupError(f"{self._owner}: not set up (no pass side)")
+        current = self.target()
+        if current is not None and current.waypoint_id == self.waypoint_id and current.locked:
+            self.feedback_message = f"{current.label} (locked, bypass under way)"
+            return Status.SUCCESS
+        marks: tuple[keys.SeenMark, ...] = self.read(keys.MARKS, ())
+        passed: tuple[keys.PassedWaypoint, ...] = self.read(keys.PASSED, ())
+        seen = nearest_of_colour(marks, self.colour, passed)
+        target = keys.Target(waypoint=self.waypoint, waypoint_id=self.waypoint_id,
+                             colour=self.colour, side=self.side)
+        if seen is not None:
+            target = with_sighting(target, seen)
+        elif current is not None and current.waypoint_id == self.waypoint_id:
+            target = current  # out of view now: keep what was seen of it so far
+        self.write(keys.TARGET, target)
+        self.feedback_message = f"{target.label}, pass on its {self.side}: {describe(seen)}"
+        return Status.SUCCESS
+
+
+class TargetSeen(MarknavBehaviour):
+    """``Seen?``: SUCCESS while the target was seen within ``lost_after_s``, else FAILURE.
+
+    Args:
+        lost_after_s: default: the mission's ``navigation.lost_after_s``.
+    """
+
+    READS: ClassVar[tuple[str, ...]] = (keys.TARGET,)
+
+    def __init__(self, name: str = "Seen?", *, lost_after_s: float | None = None) -> None:
+        super().__init__(name)
+        self._lost_override = check_positive(lost_after_s, "lost_after_s")
+        self.lost_after_s: float | None = lost_after_s
+
+    def configure(self, **kwargs: Any) -> None:
+        nav = self.mission.navigation.lost_after_s if self.mission is not None else None
+        self.lost_after_s = pick(self._lost_override, nav, owner=self._owner, what="lost_after_s")
+
+    def update(self) -> Status:
+        if self.lost_after_s is None:
+            raise SetupError(f"{self._owner}: not set up (no lost_after_s)")
+        target = self.target()
+        if target is None:
+            self.feedback_message = "no target selected"
+            return Status.FAILURE
+        if target.sighting is None:
+            self.feedback_message = f"{target.label} not seen yet"
+            return Status.FAILURE
+        age = self.now() - target.sighting.t
+        if age > self.lost_after_s:
+            self.feedback_message = f"{target.label} unseen for {age:.2f} s"
+            return Status.FAILURE
+        self.feedback_message = f"{target.label} seen {age:.2f} s ago"
+        return Status.SUCCESS
+
+
+class WaypointPassed(MarknavBehaviour):
+    """``Passed?``: SUCCESS once ``/marknav/passed`` records this waypoint, else FAILURE."""
+
+    READS: ClassVar[tuple[str, ...]] = (keys.PASSED,)
+
+    def __init__(self, name: str = "Passed?", *, waypoint_id: str) -> None:
+        super().__init__(name)
+        self.waypoint_id = waypoint_id
+
+    def update(self) -> Status:
+        passed: tuple[keys.PassedWaypoint, ...] = self.read(keys.PASSED, ())
+        for record in passed:
+            if record.waypoint_id == self.waypoint_id:
+                self.feedback_message = f"passed on its {record.side} at t={record.t:.1f} s"
+                return Status.SUCCESS
+        self.feedback_message = "not yet"
+        return Status.FAILURE
+
+
+class TargetLocked(MarknavBehaviour):
+    """``Bypassing?``: SUCCESS when this waypoint's bypass has already started (target locked).
+
+    Lets a waypoint interrupted mid-bypass (a bump recovery) resume the bypass of the same mark
+    instead of approaching and searching for it again.
+    """
+
+    READS: ClassVar[tuple[str, ...]] = (keys.TARGET,)
+
+    def __init__(self, name: str = "Bypassing?", *, waypoint_id: str | None = None) -> None:
+        super().__init__(name)
+        self.waypoint_id = waypoint_id
+
+    def update(self) -> Status:
+        target = self.target()
+        mine = target is not None and (self.waypoint_id is None
+                                       or target.waypoint_id == self.waypoint_id)
+        if target is not None and mine and target.locked:
+            self.feedback_message = f"{target.label}: bypass under way"
+            return Status.SUCCESS
+        self.feedback_message = "no bypass under way"
+        return Status.FAILURE

@@ -1,0 +1,173 @@
+"""Mocked perception: scripted marks instead of a camera, published exactly like the real thing.
+
+:class:`FakePerception` is a drop-in for :class:`marknav.behaviours.perception.Perception` (same
+default name, same blackboard writes, same "camera lost" timeout). Each tick it produces one
+frame's marks from
+
+- ``world``: marks at fixed world positions (:class:`WorldMark`), seen from the robot's *true*
+  pose (``robot.true_pose`` when the robot has one, as :class:`~marknav.testing.FakeRobot` does,
+  else ``robot.pose()``) through a pinhole camera at the robot's centre — f = 590 px, 640 px wide
+  by default; a mark is visible when it is in front and its whole disc fits in the image; and/or
+- ``script``: per tick, marks in the robot frame (:class:`RobotMark`), as a list (one entry per
+  tick; ``None`` means no frame that tick; after the list, no scripted marks) or a callable
+  ``script(tick, t)``.
+
+Pixels are synthesised with the pinhole model (radius r = f·R / forward, column
+x = c_x − f·left / forward), so steering on the pixel error works; the estimate is the exact
+robot-frame position, placed in the world with the robot's *odometry* as the real perception
+does. ``camera_on = False`` stops the frames (the camera is lost after ``camera_timeout_s``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from marknav.behaviours import keys
+from marknav.behaviours.perception import DEFAULT_CAMERA_TIMEOUT_S, Observation, PerceptionBase
+from marknav.planning.kinematics import Pose, to_robot_frame
+
+__all__ = ["FakePerception", "RobotMark", "Script", "WorldMark", "pinhole_pixels"]
+
+
+@dataclass(frozen=True)
+class WorldMark:
+    """A mark at a fixed world position (mm)."""
+
+    colour: str
+    x_mm: float
+    y_mm: float
+
+
+@dataclass(frozen=True)
+class RobotMark:
+    """A mark as the camera sees it this tick, in the robot frame (mm; x forward, y left)."""
+
+    colour: str
+    forward_mm: float
+    left_mm: float
+
+
+Script = Sequence[Sequence[RobotMark] | None] | Callable[[int, float], Sequence[RobotMark] | None]
+
+
+def pinhole_pixels(forward_mm: float, left_mm: float, *, focal_px: float, radius_mm: float,
+                   image_width: int) -> tuple[float, float]:
+    """``(x_px, radius_px)`` of a mark facing the camera: r = f·R / forward (eq. 2),
+    x = c_x − f·left / forward (eq. 21 inverted), c_x = (width − 1) / 2."""
+    if forward_mm <= 0.0:
+        raise ValueError(f"a mark must be in front of the camera, got forward_mm={forward_mm}")
+    radius_px = focal_px * radius_mm / forward_mm
+    x_px = keys.image_centre(image_width) - focal_px * left_mm / forward_mm
+    return x_px, radius_px
+
+
+class FakePerception(PerceptionBase):
+    """Writes scripted or world-placed marks to the blackboard each tick (see module docstring).
+
+    Args:
+        world: marks at world positions.
+        script: robot-frame marks per tick (list or callable).
+        focal_px, image_width, image_height: the pinhole camera.
+        mark_radius_mm: default: the mission's ``marks.radius_mm``, else 100.
+        min_radius_px: smaller marks are not seen (too far).
+        camera_timeout_s: no frame this long → FAILURE "camera lost".
+    """
+
+    def __init__(
+        self,
+        name: str = "Perception",
+        *,
+        world: Iterable[WorldMark] = (),
+        script: Script | None = None,
+        focal_px: float = 590.0,
+        image_width: int = 640,
+        image_height: int = 480,
+        mark_radius_mm: float | None = None,
+        min_radius_px: float = 4.0,
+        camera_timeout_s: float = DEFAULT_CAMERA_TIMEOUT_S,
+    ) -> None:
+        super().__init__(name, camera_timeout_s=camera_timeout_s)
+        self.world: list[WorldMark] = list(world)
+        self.script = script
+        self.focal_px = float(focal_px)
+        self.image_width = int(image_width)
+        self.image_height = int(image_height)
+        self._radius_override = mark_radius_mm
+        self.mark_radius_mm = float(mark_radius_mm) if mark_radius_mm is not None else 100.0
+        self.min_radius_px = float(min_radius_px)
+        self.camera_on = True
+        self.ticks = 0
+
+    def configure(self, **kwargs: Any) -> None:
+        if self._radius_override is None and self.mission is not None:
+            self.mark_radius_mm = self.mission.marks.radius_mm
+
+    def place(self, colour: str, *, x_mm: float, y_mm: float) -> WorldMark:
+        """Add a mark at a world position; returns it (remove it from :attr:`world` to hide it)."""
+        mark = WorldMark(colour, float(x_mm), float(y_mm))
+        self.world.append(mark)
+        return mark
+
+    def visible(self, forward_mm: float, left_mm: float) -> bool:
+        """Whether a mark there is in view: in front, large enough, the whole disc in the image."""
+        if forward_mm <= self.mark_radius_mm:
+            return False
+        x_px, r_px = pinhole_pixels(forward_mm, left_mm, focal_px=self.focal_px,
+                                    radius_mm=self.mark_radius_mm, image_width=self.image_width)
+        return (r_px >= self.min_radius_px and x_px - r_px >= 0.0
+                and x_px + r_px <= self.image_width - 1
+                and 2.0 * r_px <= self.image_height - 1)
+
+    def _view_pose(self) -> Pose:
+        true_pose = getattr(self.robot, "true_pose", None)
+        return true_pose if isinstance(true_pose, Pose) else self.robot.pose()
+
+    def _scripted(self, tick: int, t: float) -> tuple[bool, Sequence[RobotMark]]:
+        """(frame available, scripted marks) for this tick."""
+        if self.script is None:
+            return True, ()
+        if callable(self.script):
+            marks = self.script(tick, t)
+        elif tick < len(self.script):
+            marks = self.script[tick]
+        else:
+            return True, ()
+        return (marks is not None), (marks or ())
+
+    def observe(self) -> Observation | None:
+        tick = self.ticks
+        self.ticks += 1
+        if not self.camera_on:
+            return None
+        t = self.now()
+        available, scripted = self._scripted(tick, t)
+        if not available:
+            return None
+        relative: list[tuple[str, float, float]] = [
+            (m.colour, m.forward_mm, m.left_mm) for m in scripted]
+        if self.world:
+            pose = self._view_pose()
+            for w in self.world:
+                forward, left = to_robot_frame(pose, (w.x_mm, w.y_mm))
+                if self.visible(forward, left):
+                    relative.append((w.colour, forward, left))
+        marks = []
+        for colour, forward, left in relative:
+            x_px, r_px = pinhole_pixels(forward, left, focal_px=self.focal_px,
+                                        radius_mm=self.mark_radius_mm,
+                                        image_width=self.image_width)
+            marks.append(self.seen_mark(colour=colour, forward_mm=forward, left_mm=left,
+                                        x_px=x_px, radius_px=r_px,
+                                        image_width=self.image_width, t=t))
+        marks.sort(key=lambda m: m.range_mm)
+        info = keys.FrameInfo(index=tick, t=t, width=self.image_width,
+                              height=self.image_height, marks=len(marks))
+        return Observation(frame=info, marks=tuple(marks))
+
+
+def hfov_rad(focal_px: float, image_width: int) -> float:
+    """Horizontal field of view of the pinhole camera (rad)."""
+    return 2.0 * math.atan(image_width / (2.0 * focal_px))

@@ -1,0 +1,82 @@
+"""SearchWhenLost: which way it turns, success when seen, failure on timeout or a full turn."""
+
+from __future__ import annotations
+
+import math
+
+import py_trees
+import pytest
+from py_trees.common import Status
+
+from marknav.behaviours import keys
+from marknav.behaviours.search import SearchWhenLost
+from marknav.behaviours.target import SelectTarget
+
+TURN_WHEEL = round(math.radians(40.0) * 117.5)  # 82 mm/s at 40°/s, wheel base 235 mm
+
+
+def search_tree(rig, colour="red", **kwargs):
+    node = SearchWhenLost(**kwargs)
+    root = py_trees.composites.Sequence("Root", memory=False, children=[
+        rig.perception, SelectTarget(colour=colour, waypoint=0), node])
+    return rig.tree(root), node
+
+
+def last_seen_at(colour: str, x: float, y: float) -> None:
+    py_trees.blackboard.Blackboard.set(keys.TARGET, keys.Target(
+        waypoint=0, waypoint_id="waypoint-0-" + colour, colour=colour,
+        side="left" if colour == "red" else "right", world_x=x, world_y=y))
+
+
+@pytest.mark.parametrize(("colour", "wheels"), [
+    ("red", (TURN_WHEEL, -TURN_WHEEL)),  # pass on its left: it lies ahead-right, turn right
+    ("green", (-TURN_WHEEL, TURN_WHEEL)),  # pass on its right: ahead-left, turn left
+])
+def test_never_seen_turns_toward_the_pass_side(rig, colour, wheels):
+    tree, node = search_tree(rig, colour)
+    tree.tick()
+    assert node.status == Status.RUNNING
+    assert rig.robot.wheels == wheels
+    way = "right" if colour == "red" else "left"
+    assert node.feedback_message == f"looking for {colour} #1: turning {way}, 0°, 0.0/15 s"
+
+
+def test_turns_toward_where_the_target_was_last_seen(rig):
+    last_seen_at("red", -1000.0, 500.0)  # left of the robot, although red says "right"
+    tree, _ = search_tree(rig)
+    tree.tick()
+    assert rig.robot.wheels == (-TURN_WHEEL, TURN_WHEEL)
+
+
+def test_succeeds_when_the_target_comes_into_view(rig):
+    rig.perception.place("red", x_mm=-2000, y_mm=200)  # 84° to the left
+    last_seen_at("red", -2000.0, 200.0)
+    tree, node = search_tree(rig)
+    log = rig.run(tree, max_ticks=100)
+    assert log.reached
+    heading = rig.robot.pose().theta - math.pi / 2
+    bearing = math.atan2(200.0, -2000.0) - rig.robot.pose().theta
+    # it stopped as soon as the whole disc fitted in the image (28.4° half view, 2.8° disc)
+    assert math.degrees(abs(bearing)) == pytest.approx(25.6, abs=2.0)
+    assert math.degrees(heading) == pytest.approx(58.5, abs=2.0)
+    assert node.feedback_message.startswith("found red #1 after 5")
+    assert rig.robot.wheels == (0, 0)
+
+
+def test_fails_after_the_timeout(rig):
+    tree, node = search_tree(rig, timeout_s=2.98)
+    log = rig.run(tree, Status.FAILURE, max_ticks=100)
+    assert log.reached
+    assert log.records[-1].t == pytest.approx(3.0)
+    assert log.records[-2].status == Status.RUNNING
+    assert node.feedback_message.startswith("red #1 not found in 2.98 s (turned 1")
+    assert rig.robot.wheels == (0, 0)
+
+
+def test_fails_after_a_full_turn(rig):
+    tree, node = search_tree(rig)  # 40°/s: a full turn in 9 s, before the 15 s timeout
+    log = rig.run(tree, Status.FAILURE, max_ticks=400)
+    assert log.reached
+    assert log.records[-1].t == pytest.approx(9.0, abs=0.06)
+    assert node.feedback_message == f"red #1 not found in a full turn ({log.records[-1].t:.1f} s)"
+    assert rig.robot.wheels == (0, 0)

@@ -1,0 +1,107 @@
+"""Target selection and association: nearest mark, locked by world position, passed excluded."""
+
+from __future__ import annotations
+
+import py_trees
+import pytest
+from py_trees.common import Status
+
+from marknav.behaviours import keys
+from marknav.behaviours.target import (
+    SelectTarget,
+    TargetLocked,
+    TargetSeen,
+    WaypointPassed,
+    associate,
+    nearest_of_colour,
+)
+from marknav.testing import RobotMark
+
+
+def seen(colour: str, x: float, y: float, t: float = 0.0) -> keys.SeenMark:
+    """A mark seen from the origin facing +y (forward = y, left = -x)."""
+    return keys.SeenMark(colour=colour, forward_mm=y, left_mm=-x, world_x=x, world_y=y,
+                         x_px=0.0, radius_px=10.0, image_width=640, t=t)
+
+
+def target(**kw) -> keys.Target:
+    base = {"waypoint": 0, "waypoint_id": "waypoint-0-red", "colour": "red", "side": "left"}
+    return keys.Target(**{**base, **kw})
+
+
+def test_unlocked_target_is_the_nearest_mark_of_its_colour():
+    marks = [seen("red", 0, 2000), seen("green", 0, 900), seen("red", 300, 1200)]
+    assert associate(marks, target()) == marks[2]
+    assert associate([marks[1]], target()) is None
+
+
+def test_locked_target_follows_its_world_position_not_the_nearest():
+    far, near = seen("red", 0, 2000), seen("red", 300, 1200)
+    locked = target(locked=True, world_x=40.0, world_y=1900.0)
+    assert associate([far, near], locked) == far
+    # beyond the gate (max(250, 20 % of range)), nothing is associated
+    assert associate([near], locked) is None
+
+
+def test_passed_marks_are_never_selected_again():
+    old, new = seen("red", -200, 400), seen("red", 250, 2500)
+    passed = [keys.PassedWaypoint(waypoint=0, waypoint_id="w0", colour="red", side="left",
+                                  t=1.0, mark_x=-180.0, mark_y=420.0)]
+    assert nearest_of_colour([old, new], "red") == old
+    assert nearest_of_colour([old, new], "red", passed) == new
+    # a passed mark of another colour at the same place does not exclude it
+    green_passed = [keys.PassedWaypoint(0, "w0", "green", "right", 1.0, -200.0, 400.0)]
+    assert nearest_of_colour([old, new], "red", green_passed) == old
+
+
+def test_select_target_then_seen_until_lost(rig):
+    # red ahead for 3 ticks, then out of view
+    rig.perception.script = [[RobotMark("red", 1500.0, 100.0)]] * 3
+    select = SelectTarget(colour="red", waypoint=0)
+    seen_node = TargetSeen()
+    root = py_trees.composites.Sequence("Root", memory=False,
+                                        children=[rig.perception, select, seen_node])
+    tree = rig.tree(root)
+    statuses = []
+    for _ in range(9):
+        tree.tick()
+        statuses.append(tree.root.status)
+        rig.clock.advance(0.1)
+    # seen at t = 0, 0.1, 0.2; still "seen" up to 0.5 s later; lost at t = 0.8
+    assert statuses == [Status.SUCCESS] * 8 + [Status.FAILURE]
+    assert seen_node.feedback_message == "red #1 unseen for 0.60 s"
+    t = rig.bb(keys.TARGET)
+    assert (t.colour, t.side, t.waypoint, t.locked) == ("red", "left", 0, False)
+    assert t.sighting.t == pytest.approx(0.2)
+    assert t.world == (pytest.approx(-100.0), pytest.approx(1500.0))  # origin, facing +y
+    assert select.feedback_message == "red #1, pass on its left: not in view"
+
+
+def test_select_target_keeps_a_locked_target_of_its_waypoint(rig):
+    rig.perception.script = [[RobotMark("red", 600.0, 0.0), RobotMark("red", 2000.0, 500.0)]]
+    py_trees.blackboard.Blackboard.set(keys.TARGET, target(
+        locked=True, world_x=-500.0, world_y=2000.0))
+    select = SelectTarget(colour="red", waypoint=0)
+    locked = TargetLocked(waypoint_id="waypoint-0-red")
+    root = py_trees.composites.Sequence("Root", memory=False,
+                                        children=[rig.perception, select, locked])
+    tree = rig.tree(root)
+    tree.tick()
+    assert tree.root.status == Status.SUCCESS
+    t = rig.bb(keys.TARGET)
+    assert t.locked
+    # Perception associated the far mark (by position), not the nearer one straight ahead
+    assert t.sighting.forward_mm == 2000.0
+    assert select.feedback_message == "red #1 (locked, bypass under way)"
+
+
+def test_waypoint_passed_reads_route_progress(rig):
+    node = WaypointPassed(waypoint_id="waypoint-1-green")
+    tree = rig.tree(node)
+    tree.tick()
+    assert node.status == Status.FAILURE
+    py_trees.blackboard.Blackboard.set(keys.PASSED, (keys.PassedWaypoint(
+        1, "waypoint-1-green", "green", "right", 12.5, 0.0, 3000.0),))
+    tree.tick()
+    assert node.status == Status.SUCCESS
+    assert node.feedback_message == "passed on its right at t=12.5 s"
