@@ -44,6 +44,7 @@ class RunRequest:
     realtime: bool = False
     max_time_s: float | None = None
     randomise: bool = False  # generated worlds: random conditions and mark yaw (evaluation)
+    generate_world: bool = False  # ignore the mission's sim.world: generate one from the seed
 
 
 @dataclass
@@ -68,8 +69,9 @@ def build_mission_tree(mission: Mission) -> py_trees.behaviour.Behaviour:
 def _world_for(mission: Mission, req: RunRequest, seed: int) -> Any:
     from marknav.sim import world as worldmod
 
-    path = req.world
-    if path is None and mission.sim is not None and mission.sim.world is not None:
+    path = None if req.generate_world else req.world
+    if (path is None and not req.generate_world and mission.sim is not None
+            and mission.sim.world is not None):
         path = str(mission.sim.world)
     if path is not None:
         world = worldmod.load_world(path)
