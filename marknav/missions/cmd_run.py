@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
@@ -22,8 +21,11 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         ),
     )
     p.add_argument("mission", metavar="MISSION", help="mission YAML file")
-    p.add_argument("--world", metavar="WORLD", help="simulator world (default: the mission's "
-                   "sim.world, else one generated from the route and --seed)")
+    p.add_argument("--world", metavar="WORLD|generate|random",
+                   help="simulator world file (default: the mission's sim.world, else one "
+                        "generated from the route and --seed); 'generate' forces a generated "
+                        "world, 'random' one with randomised light, noise, wheels and mark yaw "
+                        "(what 'marknav evaluate' runs, so its failures replay exactly)")
     p.add_argument("--robot", default="sim", metavar="sim|PORT|URL",
                    help="'sim', a serial device (/dev/ttyUSB0) or a pyserial URL "
                         "(socket://host:port, rfc2217://host:port)")
@@ -54,13 +56,13 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"must be positive, got {args.max_time}", field="--max-time")
     if args.seed is not None and args.seed < 0:
         raise InputError(f"must be ≥ 0, got {args.seed}", field="--seed")
-    if not sys.stdout.isatty():
-        os.environ.setdefault("PY_TREES_DISABLE_COLORS", "1")
     mission = load_mission(args.mission)
     report_path: Path = args.report or default_run_dir(mission) / "report.json"
     events_path: Path = args.events or report_path.with_name(report_path.stem + ".events.jsonl")
+    generated = args.world in ("generate", "random")
     req = RunRequest(
-        mission=mission, world=args.world, robot=args.robot, camera=args.camera,
+        mission=mission, world=None if generated else args.world, robot=args.robot,
+        camera=args.camera, generate_world=generated, randomise=args.world == "random",
         tree_style=args.tree, out=sys.stdout, report_path=report_path,
         events_path=events_path, plot_path=args.plot, seed=args.seed,
         realtime=args.realtime, max_time_s=args.max_time,

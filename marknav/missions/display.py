@@ -2,9 +2,10 @@
 
 Uses py_trees' :class:`~py_trees.visitors.SnapshotVisitor` so only the visited branch is marked,
 and renders with :func:`py_trees.display.ascii_tree` or ``unicode_tree``. The tree is printed when
-its rendered text changes (which also catches feedback-message changes that ``snap.changed``
-ignores), not every tick. Colours: py_trees decides at import whether the output is a terminal;
-``PY_TREES_DISABLE_COLORS=1`` turns them off (set by the CLI when stdout is not a terminal).
+a node's status changes or another branch is visited — not every tick, and not when only a
+feedback message moves (a distance counting down would reprint it every tick); the status line
+under it carries the live figures. Colours: py_trees uses them only when stdout is a terminal;
+``PY_TREES_DISABLE_COLORS=1`` turns them off.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ class TreeView:
         self.style = style
         self.status_line = status_line
         self.snapshot = py_trees.visitors.SnapshotVisitor()
-        self._last = ""
+        self._last: tuple[tuple[str, str], ...] | None = None
         self.prints = 0
         if style != "none":
             tree.add_visitor(self.snapshot)
@@ -55,10 +56,11 @@ class TreeView:
         """Call after each tick; prints and returns True when the tree looks different."""
         if self.style == "none":
             return False
-        text = self.render()
-        if text == self._last:
+        key = tuple(sorted((str(k), v.value) for k, v in self.snapshot.visited.items()))
+        if key == self._last:
             return False
-        self._last = text
+        self._last = key
+        text = self.render()
         status = self.status_line() if self.status_line else ""
         self.out.write(text.rstrip("\n") + "\n")
         if status:

@@ -49,6 +49,9 @@ class RunReport:
     seed: int | None = None
     robot: str = "sim"
     camera: str = "sim"
+    # Simulator only: the simulated Create after the run (wheels, OI mode): proof that the
+    # wheels were stopped and the robot returned to Passive, whatever ended the run.
+    sim_final: dict[str, Any] | None = None
 
     @property
     def speedup(self) -> float | None:

@@ -232,6 +232,11 @@ def _fill_ground_truth(mission: Mission, env: Environment, report: RunReport) ->
         wp.passed_on = side
         wp.min_clearance_mm = clearance
     report.collisions = len(env.truth.collisions)
+    report.sim_final = {
+        "wheels_mm_s": [env.create.wheel_speeds.left, env.create.wheel_speeds.right],
+        "oi_mode": env.create.mode.name.lower(),
+        "stream": bool(env.create.streaming),
+    }
 
 
 def _plot(mission: Mission, env: Environment, result: RunResult, path: Path) -> None:

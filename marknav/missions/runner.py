@@ -81,7 +81,7 @@ class RunOptions:
     setup_timeout_s: float = 5.0
 
 
-class Interrupted(Exception):
+class Interrupted(KeyboardInterrupt):
     """Raised inside the loop by SIGINT/SIGTERM."""
 
 
