@@ -12,6 +12,11 @@ the bypass threshold, and is multiplied by cos α so the robot turns before it r
 are v ∓ ω·b/2 (eqs. 25–27), scaled together when one exceeds ``robot.max_speed_mm_s``
 (:func:`marknav.planning.kinematics.scale_to_limit`).
 
+With ``navigation.approach_aim: side`` the aim moves from the mark's centre to the point
+``clearance_mm`` beside it on its pass side: α is shifted by σ·atan(clearance / d) (σ = +1 to the
+left for a mark passed on its left). The robot then heads for where it will pass instead of at
+the mark, which keeps it clear of a mark it just passed when the route turns back past it.
+
 Between frames (the target's sighting is older than the latest frame) the mark's world estimate
 and the odometry pose stand in for the pixels. SUCCESS when the estimated distance along the
 heading (the paper's d_yp) is at most ``bypass_distance_mm``; FAILURE when the target has not been
@@ -126,6 +131,8 @@ class ApproachWhileCentring(DrivingBehaviour):
                                    what="robot.max_speed_mm_s"),
             "focal_px": pick(None, m.camera.focal_px if m else None, owner=owner,
                              what="camera.focal_px"),
+            "aim_offset_mm": (m.navigation.clearance_mm
+                              if m is not None and m.navigation.approach_aim == "side" else 0.0),
         }
 
     def initialise(self) -> None:
@@ -155,6 +162,9 @@ class ApproachWhileCentring(DrivingBehaviour):
             self.feedback_message = (f"{target.label} at {forward / 1000.0:.2f} m: "
                                      "bypass threshold reached")
             return Status.SUCCESS
+        if s["aim_offset_mm"] > 0.0:  # aim beside the mark, on its pass side
+            sigma = 1.0 if target.side == "left" else -1.0
+            angle += sigma * math.atan2(s["aim_offset_mm"], forward)
         cmd = centring_command(
             angle_rad=angle, forward_mm=forward, speed_mm_s=s["speed_mm_s"],
             bypass_distance_mm=s["bypass_distance_mm"], steer_gain=self.steer_gain,

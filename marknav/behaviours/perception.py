@@ -25,7 +25,7 @@ from py_trees.common import Status
 
 from marknav.behaviours import keys
 from marknav.behaviours.base import MarknavBehaviour, SetupError, check_positive
-from marknav.behaviours.target import associate, describe, with_sighting
+from marknav.behaviours.target import associate, describe, excluded_passes, with_sighting
 from marknav.planning.kinematics import to_world_frame
 from marknav.vision.estimate import Pinhole, PowerLaw, RangeModel, estimate
 from marknav.vision.sources import FrameSource
@@ -107,7 +107,8 @@ class PerceptionBase(MarknavBehaviour):
         target = self.target()
         sighting = None
         if target is not None:
-            sighting = associate(obs.marks, target, self.read(keys.PASSED, ()))
+            passed = excluded_passes(self.read(keys.PASSED, ()), self.mission)
+            sighting = associate(obs.marks, target, passed)
             if sighting is not None:
                 self.write(keys.TARGET, with_sighting(target, sighting))
         seen = ", ".join(f"{m.colour} {m.range_mm / 1000.0:.2f} m" for m in obs.marks) or "no marks"

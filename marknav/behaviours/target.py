@@ -23,12 +23,15 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import replace
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from py_trees.common import Status
 
 from marknav.behaviours import keys
 from marknav.behaviours.base import MarknavBehaviour, SetupError, check_positive, pick
+
+if TYPE_CHECKING:
+    from marknav.missions.schema import Mission
 
 __all__ = [
     "GATE_MIN_MM",
@@ -37,6 +40,7 @@ __all__ = [
     "TargetSeen",
     "WaypointPassed",
     "associate",
+    "excluded_passes",
     "gate_mm",
     "is_passed_mark",
     "nearest_of_colour",
@@ -67,6 +71,16 @@ def is_passed_mark(mark: keys.SeenMark, passed: Iterable[keys.PassedWaypoint]) -
         and math.hypot(mark.world_x - p.mark_x, mark.world_y - p.mark_y) <= gate
         for p in passed
     )
+
+
+def excluded_passes(
+    passed: Sequence[keys.PassedWaypoint], mission: Mission | None
+) -> tuple[keys.PassedWaypoint, ...]:
+    """The passed waypoints whose marks may not be targeted again: all of them, or with
+    ``navigation.revisit_marks`` (a figure-eight) only the one passed last."""
+    if mission is not None and mission.navigation.revisit_marks:
+        return tuple(passed[-1:])
+    return tuple(passed)
 
 
 def nearest_of_colour(
@@ -173,7 +187,7 @@ class SelectTarget(MarknavBehaviour):
             self.feedback_message = f"{current.label} (locked, bypass under way)"
             return Status.SUCCESS
         marks: tuple[keys.SeenMark, ...] = self.read(keys.MARKS, ())
-        passed: tuple[keys.PassedWaypoint, ...] = self.read(keys.PASSED, ())
+        passed = excluded_passes(self.read(keys.PASSED, ()), self.mission)
         seen = nearest_of_colour(marks, self.colour, passed)
         target = keys.Target(waypoint=self.waypoint, waypoint_id=self.waypoint_id,
                              colour=self.colour, side=self.side)

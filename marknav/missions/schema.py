@@ -303,6 +303,20 @@ class Navigation(BaseModel):
         description="Pure-pursuit lookahead along the bypass curve, mm.",
     )
     search: Search = Field(default=Search(), description="Searching for a lost target.")
+    approach_aim: Literal["centre", "side"] = Field(
+        default="centre",
+        description="What the approach keeps in the middle of the image: 'centre' — the mark "
+        "itself (the paper's §4.6); 'side' — the point clearance_mm beside the mark on its pass "
+        "side, so the robot heads for where it will pass. 'side' keeps clear of a mark just "
+        "passed when the route turns back past it (a figure-eight).",
+    )
+    revisit_marks: bool = Field(
+        default=False,
+        description="The route passes the same physical marks more than once (a figure-eight "
+        "around two marks). When false (the default), a mark already passed is never chosen "
+        "again as a target, so a search turn that sweeps past an old mark of the route's next "
+        "colour does not turn back to it; when true, only the mark passed last is excluded.",
+    )
 
 
 class Safety(BaseModel):

@@ -96,3 +96,20 @@ def test_fails_when_the_target_is_lost_and_stops(rig):
     moving_after = [c for c in rig.robot.commands if c.t > 0.2 and c.left > 0]
     assert len(moving_after) >= 9
     assert rig.robot.wheels == (0, 0)
+
+
+@pytest.mark.parametrize(("colour", "sign"), [("red", 1.0), ("green", -1.0)])
+def test_side_aim_heads_for_the_pass_point(rig, mission_factory, colour, sign):
+    # red is passed on its left (aim left of it), green on its right (aim right of it).
+    rig.mission = mission_factory(navigation={"approach_aim": "side"})
+    rig.perception.place(colour, x_mm=0, y_mm=2000)  # dead ahead
+    node = ApproachWhileCentring()
+    root = py_trees.composites.Sequence("Root", memory=False, children=[
+        rig.perception, SelectTarget(colour=colour, waypoint=0), node])
+    tree = rig.tree(root)
+    tree.tick()
+    cmd = first_command(rig)
+    angle = sign * math.atan2(300.0, 2000.0)  # clearance beside the mark, on its pass side
+    v = 250.0 * math.cos(angle)
+    assert (cmd.left, cmd.right) == (round(v - 2.0 * angle * 117.5),
+                                     round(v + 2.0 * angle * 117.5))

@@ -105,3 +105,19 @@ def test_waypoint_passed_reads_route_progress(rig):
     tree.tick()
     assert node.status == Status.SUCCESS
     assert node.feedback_message == "passed on its right at t=12.5 s"
+
+
+def test_revisit_marks_excludes_only_the_mark_passed_last(mission_factory):
+    from marknav.behaviours import keys
+    from marknav.behaviours.target import excluded_passes
+
+    def passed(i, colour):
+        return keys.PassedWaypoint(waypoint=i, waypoint_id=f"w{i}", colour=colour, side="left",
+                                   t=float(i), mark_x=0.0, mark_y=1000.0 * i)
+
+    history = (passed(0, "red"), passed(1, "green"))
+    assert excluded_passes(history, mission_factory()) == history
+    figure_eight = mission_factory(navigation={"revisit_marks": True})
+    assert excluded_passes(history, figure_eight) == history[1:]
+    assert excluded_passes((), figure_eight) == ()
+    assert excluded_passes(history, None) == history
