@@ -56,6 +56,8 @@ def open_port(
     Raises :class:`~marknav.errors.InputError` naming the port when it cannot be opened.
     """
     register_url_schemes()
+    if url.lower().startswith("rfc2217://"):
+        write_timeout = None  # pyserial's RFC 2217 client raises NotImplementedError for one
     try:
         port = serial.serial_for_url(
             url,
@@ -69,7 +71,7 @@ def open_port(
             timeout=timeout,
             write_timeout=write_timeout,
         )
-    except (serial.SerialException, OSError, ValueError) as exc:
+    except (serial.SerialException, OSError, ValueError, NotImplementedError) as exc:
         raise InputError(f"cannot open serial port: {exc}", file=url) from exc
     _try_low_latency(port, url)
     log.info("opened %s at %d baud", url, baudrate)
