@@ -1,0 +1,137 @@
+"""``marknav bench``: the benchmark registry and the command that runs them.
+
+Each benchmark is a function returning a JSON-ready dict (its section). ``marknav bench all``
+runs every one and prints ONE JSON object: ``machine`` (CPU, cores, Python, numpy and OpenCV
+versions) once at the top level, then a section per benchmark:
+
+- ``vision`` — the detector against plain ``HoughCircles`` on fixed synthetic frames
+  (:func:`marknav.vision.bench.run_vision_bench`);
+- ``tree`` — µs per behaviour-tree tick, slalom and a 50-waypoint route, mocked perception
+  (:func:`marknav.missions.bench.bench_tree`);
+- ``loop`` — a simulated mission with rendering and detection: cycle times, overruns, speed-up
+  (:func:`marknav.missions.bench.bench_loop`);
+- ``safety`` — bump-to-stop latency, safety layer alone and through the real driver
+  (:func:`marknav.missions.bench.bench_safety`).
+
+``--quick`` runs each with small sizes (a smoke test: the figures are noisier).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = ["BENCHMARKS", "Benchmark", "machine_info", "run_benchmarks"]
+
+
+@dataclass(frozen=True)
+class Benchmark:
+    name: str
+    help: str
+    #: ``run(quick)`` -> the section's dict.
+    run: Callable[[bool], dict[str, Any]]
+
+
+def _vision(quick: bool) -> dict[str, Any]:
+    from marknav.vision.bench import run_vision_bench
+
+    return run_vision_bench(frames=10, repeats=1) if quick else run_vision_bench()
+
+
+def _tree(quick: bool) -> dict[str, Any]:
+    from marknav.missions.bench import bench_tree
+
+    return bench_tree(ticks=200, slalom_ticks=200) if quick else bench_tree()
+
+
+def _loop(quick: bool) -> dict[str, Any]:
+    from marknav.missions.bench import bench_loop
+
+    return bench_loop(max_time_s=5.0) if quick else bench_loop(max_time_s=60.0)
+
+
+def _safety(quick: bool) -> dict[str, Any]:
+    from marknav.missions.bench import bench_safety
+
+    return bench_safety(n=200, e2e_n=50) if quick else bench_safety()
+
+
+#: The registry, in the order ``all`` runs them.
+BENCHMARKS: dict[str, Benchmark] = {b.name: b for b in (
+    Benchmark("vision", "detector vs HoughCircles, 640×480 synthetic frames, one core", _vision),
+    Benchmark("tree", "µs per behaviour-tree tick (slalom, 50 waypoints), mocked perception",
+              _tree),
+    Benchmark("loop", "60 s simulated slalom at 20 Hz with rendering and detection", _loop),
+    Benchmark("safety", "bump-to-stop latency: safety layer, and end to end via the driver",
+              _safety),
+)}
+
+
+def machine_info() -> dict[str, Any]:
+    """CPU model (from /proc/cpuinfo), cores, Python, numpy and OpenCV versions."""
+    import cv2
+    import numpy as np
+
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as fh:
+            for line in fh:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(),
+            "numpy": np.__version__, "opencv": cv2.__version__}
+
+
+def run_benchmarks(names: list[str], *, quick: bool = False) -> dict[str, Any]:
+    """``{"machine": ..., name: section, ...}`` for the named benchmarks, in registry order.
+    A section's own ``machine`` entry (the vision bench has one) moves to the top level."""
+    out: dict[str, Any] = {"machine": machine_info()}
+    for name in BENCHMARKS:
+        if name not in names:
+            continue
+        section = dict(BENCHMARKS[name].run(quick))
+        extra = section.pop("machine", None)
+        if isinstance(extra, dict):
+            for key, value in extra.items():
+                out["machine"].setdefault(key, value)
+        out[name] = section
+    return out
+
+
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser(
+        "bench",
+        help="measure vision, tree, control-loop and safety timings on this machine",
+        description="Run the benchmarks and print their figures (" + "; ".join(
+            f"{b.name}: {b.help}" for b in BENCHMARKS.values()) + "; all: every one).",
+    )
+    p.add_argument("which", nargs="?", default="all", choices=[*BENCHMARKS, "all"],
+                   help="which benchmark (default all)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--quick", action="store_true",
+                   help="small sizes: a smoke test, noisier figures")
+    p.set_defaults(func=run)
+
+
+def _text(results: dict[str, Any]) -> str:
+    lines = []
+    for section, values in results.items():
+        lines.append(f"{section}:")
+        for key, value in values.items():
+            lines.append(f"  {key}: {value}")
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    names = list(BENCHMARKS) if args.which == "all" else [args.which]
+    results = run_benchmarks(names, quick=args.quick)
+    print(json.dumps(results, indent=2) if args.json else _text(results))
+    return 0

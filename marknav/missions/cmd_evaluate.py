@@ -1,0 +1,121 @@
+"""``marknav evaluate``: success rate and safety figures of a mission over many simulated worlds,
+or (``--accuracy``) the paper's Fig. 13 position-accuracy experiment (§5, eq. 40)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import TextIO
+
+from marknav.errors import InputError, MissionFailed
+
+BAR_WIDTH = 20
+
+
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser(
+        "evaluate",
+        help="run a mission on many generated worlds and report its success rate",
+        description=(
+            "Run MISSION --runs N times in the simulator, each on a world generated from the "
+            "route with seed S, S+1, ... and randomised light, colour cast, noise, blur, wheel "
+            "mismatch, mark yaw and camera latency. Prints the success rate with its 95 %% "
+            "confidence interval, collisions, marks passed on the wrong side, the closest "
+            "approach to a mark, time per run, and each failing seed with the command that "
+            "replays it. Exits 1 when the success rate is under --min-success. With --accuracy, "
+            "measures the position estimate's error against ground truth over a grid of mark "
+            "positions instead (the paper's Fig. 13)."
+        ),
+    )
+    p.add_argument("mission", metavar="MISSION", nargs="?",
+                   help="mission YAML file (optional with --accuracy)")
+    p.add_argument("--runs", type=int, metavar="N", help="number of simulated runs")
+    p.add_argument("--seed", type=int, default=0, metavar="S", help="first seed (default 0)")
+    p.add_argument("--jobs", type=int, default=1, metavar="J",
+                   help="runs in parallel processes (default 1); results do not depend on it")
+    p.add_argument("--max-time", type=float, metavar="SECONDS",
+                   help="mission time limit per run (default 60 s + 40 s per waypoint)")
+    p.add_argument("--min-success", type=float, default=0.95, metavar="RATE",
+                   help="exit 1 when the success rate is under this (0..1, default 0.95)")
+    p.add_argument("--json", action="store_true", help="print the results as JSON")
+    p.add_argument("--accuracy", action="store_true",
+                   help="measure position accuracy against ground truth (paper Fig. 13)")
+    p.add_argument("--frames", type=int, default=100, metavar="N",
+                   help="--accuracy: frames per grid point (default 100)")
+    p.add_argument("--grid", default="paper", choices=("paper", "coarse"),
+                   help="--accuracy: 'paper' x -600..600 by 200, y 500..3000 by 250 mm "
+                        "(default), or 'coarse' 3 x 4 points")
+    p.add_argument("--plot", metavar="FILE.png", help="--accuracy: draw error against distance")
+    p.set_defaults(func=run)
+
+
+class ProgressBar:
+    """``\\r[#####-----] 12/20 success 11`` on a terminal, nothing otherwise."""
+
+    def __init__(self, out: TextIO) -> None:
+        self.out = out
+        self.enabled = out.isatty()
+        self.shown = False
+
+    def __call__(self, done: int, total: int, successes: int) -> None:
+        if not self.enabled:
+            return
+        filled = BAR_WIDTH * done // total
+        self.out.write(f"\r[{'#' * filled}{'-' * (BAR_WIDTH - filled)}] {done}/{total} "
+                       f"success {successes}")
+        self.out.flush()
+        self.shown = True
+
+    def finish(self) -> None:
+        if self.shown:
+            self.out.write("\n")
+            self.out.flush()
+            self.shown = False
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.accuracy:
+        return _accuracy(args)
+    for option, given in (("--frames", args.frames != 100), ("--plot", args.plot is not None),
+                          ("--grid", args.grid != "paper")):
+        if given:
+            raise InputError("only applies with --accuracy", field=option)
+    if args.mission is None:
+        raise InputError("give a MISSION to evaluate (or --accuracy)")
+    if args.runs is None:
+        raise InputError("give the number of runs: --runs N", field="--runs")
+    from marknav.missions.evaluate import evaluate, format_evaluation
+
+    bar = ProgressBar(sys.stderr)
+    try:
+        ev = evaluate(args.mission, runs=args.runs, seed=args.seed, jobs=args.jobs,
+                      max_time_s=args.max_time, min_success=args.min_success, progress=bar)
+    finally:
+        bar.finish()
+    if args.json:
+        print(json.dumps(ev.to_dict(), indent=2))
+    else:
+        print(format_evaluation(ev))
+    if not ev.passed:
+        raise MissionFailed(f"success rate {ev.success_rate:.1%} ({ev.successes}/{ev.runs}) is "
+                            f"under --min-success {ev.min_success:.1%}")
+    return 0
+
+
+def _accuracy(args: argparse.Namespace) -> int:
+    if args.runs is not None:
+        raise InputError("does not apply with --accuracy", field="--runs")
+    from marknav.missions.evaluate import format_accuracy, plot_accuracy, position_accuracy
+
+    result = position_accuracy(args.mission, frames=args.frames, grid=args.grid,
+                               seed=args.seed)
+    if args.plot:
+        plot_accuracy(result, args.plot)
+    if args.json:
+        print(json.dumps(result.to_dict(), indent=2))
+    else:
+        print(format_accuracy(result))
+        if args.plot:
+            print(f"plot: {args.plot}")
+    return 0
