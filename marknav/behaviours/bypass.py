@@ -37,10 +37,12 @@ from marknav.planning.bezier import BypassPlan, PlanningError, plan_bypass
 from marknav.planning.kinematics import Pose
 from marknav.planning.tracking import PurePursuit
 
-__all__ = ["EXIT_MARGIN_MM", "BezierBypass", "behind_of", "lateral_of"]
+__all__ = ["EXIT_MARGIN_MM", "RECOVERY_WIDENING_MM", "BezierBypass", "behind_of", "lateral_of"]
 
 #: Extra run-out beyond robot radius + mark radius before a bypass counts as done (mm).
 EXIT_MARGIN_MM = 60.0
+#: How much wider each bump recovery makes later bypasses (mm).
+RECOVERY_WIDENING_MM = 60.0
 
 
 def lateral_of(pose: Pose, mark_xy: tuple[float, float], course: float) -> float:
@@ -69,7 +71,7 @@ class BezierBypass(DrivingBehaviour):
     Setup: ``robot``, ``clock``, ``mission`` (also wheel base, speed limit, mark radius).
     """
 
-    READS: ClassVar[tuple[str, ...]] = (keys.TARGET, keys.PASSED, keys.PLANS)
+    READS: ClassVar[tuple[str, ...]] = (keys.TARGET, keys.PASSED, keys.PLANS, keys.RECOVERY)
     WRITES: ClassVar[tuple[str, ...]] = (keys.DRIVER, keys.TARGET, keys.PASSED, keys.PLANS)
 
     def __init__(
@@ -82,8 +84,10 @@ class BezierBypass(DrivingBehaviour):
         replan_ratio: float = 0.9,
         replan_min_shift_mm: float = 10.0,
         exit_mm: float | None = None,
+        margin_mm: float | None = None,
     ) -> None:
         super().__init__(name)
+        self._margin = None if margin_mm is None else float(margin_mm)
         self._exit = None if exit_mm is None else float(exit_mm)
         if self._exit is not None and not (math.isfinite(self._exit) and self._exit >= 0):
             raise ValueError(f"exit_mm must be >= 0, got {exit_mm!r}")
@@ -114,6 +118,8 @@ class BezierBypass(DrivingBehaviour):
         self.settings = {
             "clearance_mm": pick(self._clearance, m.navigation.clearance_mm if m else None,
                                  owner=owner, what="clearance_mm"),
+            "margin_mm": (self._margin if self._margin is not None
+                          else m.navigation.bypass_margin_mm if m is not None else 0.0),
             "speed_mm_s": pick(self._speed,
                                THRESHOLD_SPEED_FRACTION * m.navigation.approach_speed_mm_s
                                if m else None, owner=owner, what="bypass speed"),
@@ -195,11 +201,33 @@ class BezierBypass(DrivingBehaviour):
 
     # -- helpers -------------------------------------------------------------------------------
 
+    def planned_clearance_mm(self) -> float:
+        """The clearance planned: ``clearance_mm`` + ``bypass_margin_mm``, widened by
+        :data:`RECOVERY_WIDENING_MM` for each bump recovery so far (a bump says the mark is
+        nearer than odometry believes)."""
+        recovery: keys.Recovery = self.read(keys.RECOVERY, keys.Recovery())
+        s = self.settings
+        return s["clearance_mm"] + s["margin_mm"] + RECOVERY_WIDENING_MM * recovery.count
+
     def _plan(self, pose: Pose, mark: tuple[float, float], *, course: float | None) -> BypassPlan:
+        """Plan at :meth:`planned_clearance_mm`; when that is not feasible from here (e.g. the
+        robot backed off from a bump to inside the widened clearance), fall back to the
+        clearance plus margin, then to the bare clearance."""
         assert self._target is not None
         s = self.settings
-        return plan_bypass(pose, mark, mark_radius_mm=s["mark_radius_mm"],
-                           clearance_mm=s["clearance_mm"], side=self._target.side, course=course)
+        wanted = self.planned_clearance_mm()
+        tries = sorted({wanted, s["clearance_mm"] + s["margin_mm"], s["clearance_mm"]},
+                       reverse=True)
+        error: PlanningError | None = None
+        for clearance in tries:
+            try:
+                return plan_bypass(pose, mark, mark_radius_mm=s["mark_radius_mm"],
+                                   clearance_mm=clearance, side=self._target.side,
+                                   course=course)
+            except PlanningError as exc:
+                error = exc
+        assert error is not None
+        raise error
 
     def _adopt(self, plan: BypassPlan, reason: str) -> None:
         assert self._target is not None

@@ -4,11 +4,13 @@ Which way to turn:
 
 1. toward where the target was last seen: its world estimate, put in the robot frame with the
    current odometry pose, is on the left (turn counter-clockwise) or on the right (clockwise);
-2. when it was never seen, toward where the route says it should be. A mark to be passed on its
+2. when it was never seen, toward the mark passed last: its bypass ended beside the course on that
+   mark's far side, so the course and the next mark lie toward it (in a slalom, after passing a
+   mark with it on the right, the next one is ahead-right);
+3. at the first waypoint, toward where the route says it should be. A mark to be passed on its
    **left** is one the robot will drive by with the mark on its **right**: a course laid for that
    has the mark ahead-right of the robot's path, so turn **right** (clockwise). A mark to be passed
-   on its right lies ahead-left: turn left. In a slalom this is also where the next mark is
-   after the previous bypass, which ends parallel to the original heading.
+   on its right lies ahead-left: turn left.
 
 The turn rate is ``navigation.search.turn_speed_deg_s`` (wheels ∓ω·b/2, eq. 27). SUCCESS as soon as
 the target is seen after the search started; FAILURE after ``navigation.search.timeout_s`` or a
@@ -32,11 +34,17 @@ LEFT = 1  # counter-clockwise
 RIGHT = -1  # clockwise
 
 
-def search_direction(target: keys.Target, pose: Pose) -> int:
-    """+1 (turn left, CCW) or −1 (turn right, CW): toward the last sighting, else by pass side."""
-    world = target.world
-    if world is not None:
-        _, left = to_robot_frame(pose, world)
+def search_direction(
+    target: keys.Target, pose: Pose, previous: keys.PassedWaypoint | None = None
+) -> int:
+    """+1 (turn left, CCW) or −1 (turn right, CW): toward the last sighting; for a mark never
+    seen, toward the mark passed last (the bypass left the robot beside the course, on that
+    mark's far side, so the course — and the next mark — lies toward it); with neither, by the
+    target's pass side."""
+    for point in (target.world, (previous.mark_x, previous.mark_y) if previous else None):
+        if point is None:
+            continue
+        _, left = to_robot_frame(pose, point)
         if left > 0.0:
             return LEFT
         if left < 0.0:
@@ -54,7 +62,7 @@ class SearchWhenLost(DrivingBehaviour):
     Setup: ``robot``, ``clock``, ``mission`` (wheel base and the defaults above).
     """
 
-    READS: ClassVar[tuple[str, ...]] = (keys.TARGET,)
+    READS: ClassVar[tuple[str, ...]] = (keys.TARGET, keys.PASSED)
 
     def __init__(
         self,
@@ -91,7 +99,9 @@ class SearchWhenLost(DrivingBehaviour):
         self._last_theta = pose.theta
         self.turned_rad = 0.0
         target = self.target()
-        self.direction = search_direction(target, pose) if target is not None else 0
+        passed: tuple[keys.PassedWaypoint, ...] = self.read(keys.PASSED, ())
+        previous = passed[-1] if passed else None
+        self.direction = search_direction(target, pose, previous) if target is not None else 0
         self.feedback_message = "starting"
 
     def update(self) -> Status:

@@ -303,6 +303,13 @@ class Navigation(BaseModel):
         description="Pure-pursuit lookahead along the bypass curve, mm.",
     )
     search: Search = Field(default=Search(), description="Searching for a lost target.")
+    bypass_margin_mm: float = Field(
+        default=40.0, ge=0, le=500, allow_inf_nan=False,
+        description="Extra distance, mm, planned beyond clearance_mm. Once the mark leaves the "
+        "camera's view the bypass is tracked from odometry alone, and unequal wheels (which "
+        "the encoders cannot see) drift the robot a few centimetres over a bypass; the margin "
+        "absorbs that. After each bump recovery the bypass widens by another 60 mm.",
+    )
     approach_aim: Literal["centre", "side"] = Field(
         default="centre",
         description="What the approach keeps in the middle of the image: 'centre' — the mark "

@@ -488,7 +488,15 @@ def generate_world(
             sign = math.copysign(1.0, off)
         m = (p0.x + a * fwd[0] + off * left[0], p0.y + a * fwd[1] + off * left[1])
         yaw = float(rng.uniform(-MARK_YAW_MAX_DEG, MARK_YAW_MAX_DEG)) if randomised else 0.0
-        yaw += math.degrees(p0.theta - math.pi / 2.0)  # face the course's start direction
+        if first or not randomised:
+            yaw += math.degrees(p0.theta - math.pi / 2.0)  # face the course's start direction
+        else:
+            # Turned relative to the line of sight from where the robot will look for it (the
+            # previous bypass ends), so ±MARK_YAW_MAX_DEG is the angle the camera sees it at: a
+            # yaw drawn against the course could leave the mark edge-on, a sliver no camera finds.
+            sx = sum(m[0] - o[0][0] for o in origins)
+            sy = sum(m[1] - o[0][1] for o in origins)
+            yaw += math.degrees(math.atan2(-sx, sy))  # normal (sin yaw, -cos yaw) toward them
         marks.append(MarkSpec(colour=colour, x_mm=round(m[0], 1), y_mm=round(m[1], 1),
                               yaw_deg=round(yaw, 2), radius_mm=radius_mm))
         # The bypass of this mark begins where the robot, coming from the previous origins,

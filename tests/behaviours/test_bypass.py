@@ -20,6 +20,7 @@ RUN_OUT_MM = 165.0 + 100.0 + EXIT_MARGIN_MM
 
 
 def bypass_tree(rig, colour="red", **kwargs):
+    kwargs.setdefault("margin_mm", 0.0)  # plan at exactly the clearance unless a test says
     node = BezierBypass(**kwargs)
     pass_ = py_trees.composites.Sequence("Pass", memory=True, children=[
         SelectTarget(colour=colour, waypoint=0), node])
@@ -122,3 +123,15 @@ def test_without_replanning_the_first_estimate_stands(rig):
     assert math.dist(rig.bb(keys.PLANS)[0].plan.mark_xy, mark) > 60.0
     # the curve ends beside the 8 % long estimate
     assert rig.robot.true_pose.y - mark[1] - RUN_OUT_MM > 60.0
+
+
+@pytest.mark.parametrize(("recoveries", "planned"), [(0, 340.0), (1, 400.0), (2, 460.0)])
+def test_plans_with_the_drift_margin_widened_after_each_bump(rig, recoveries, planned):
+    # mission default: clearance 300 + bypass_margin_mm 40, + RECOVERY_WIDENING_MM per recovery
+    py_trees.blackboard.Blackboard.set(keys.RECOVERY, keys.Recovery(count=recoveries))
+    rig.perception.place("red", x_mm=50, y_mm=1000)
+    tree, node = bypass_tree(rig, margin_mm=None)
+    tree.tick()
+    (plan,) = rig.bb(keys.PLANS)
+    assert plan.plan.min_clearance_mm == pytest.approx(planned, abs=1e-6)
+    assert node.planned_clearance_mm() == pytest.approx(planned)

@@ -80,3 +80,23 @@ def test_fails_after_a_full_turn(rig):
     assert log.records[-1].t == pytest.approx(9.0, abs=0.06)
     assert node.feedback_message == f"red #1 not found in a full turn ({log.records[-1].t:.1f} s)"
     assert rig.robot.wheels == (0, 0)
+
+
+def test_a_never_seen_mark_is_sought_toward_the_mark_passed_last():
+    from marknav.behaviours import keys
+    from marknav.behaviours.search import LEFT, RIGHT, search_direction
+    from marknav.planning.kinematics import Pose
+
+    green = keys.Target(waypoint=1, waypoint_id="w1", colour="green", side="right")
+    here = Pose(-500.0, 1800.0, math.pi / 2)  # beside the course, after passing red on its left
+
+    def passed(x):
+        return keys.PassedWaypoint(waypoint=0, waypoint_id="w0", colour="red", side="left",
+                                   t=9.0, mark_x=x, mark_y=1500.0)
+
+    # red (passed, behind and to the right) says where the course is: turn right...
+    assert search_direction(green, here, passed(-200.0)) == RIGHT
+    # ...even though green, passed on its right, would otherwise be sought on the left,
+    assert search_direction(green, here) == LEFT
+    # and a previous mark on the left turns left.
+    assert search_direction(green, here, passed(-800.0)) == LEFT

@@ -220,7 +220,7 @@ def test_known_sides_only_constrain_their_own_side() -> None:
 
 
 def test_randomised_conditions_stay_in_range() -> None:
-    casts, gains, latencies, yaws = set(), [], set(), []
+    casts, gains, latencies, yaws, views = set(), [], set(), [], []
     for seed in range(60):
         world = generate_world(["red", "blue"], seed=seed, clearance_mm=300,
                                conditions="randomised")
@@ -233,7 +233,17 @@ def test_randomised_conditions_stay_in_range() -> None:
         assert 0 <= c.wheel_slip <= w.WHEEL_SLIP_MAX
         assert w.NOISE_SIGMA_RANGE[0] <= c.noise_sigma <= w.NOISE_SIGMA_RANGE[1]
         assert w.BLUR_SIGMA_RANGE_PX[0] <= c.blur_sigma_px <= w.BLUR_SIGMA_RANGE_PX[1]
-        yaws += [m.yaw_deg for m in world.marks]
+        first, second = world.marks
+        yaws.append(first.yaw_deg)
+        # The second mark is turned relative to the line of sight from where the robot looks for
+        # it (beside the first mark), never edge-on: within 45° of facing it, plus the spread
+        # of the two pass sides seen from 1.2-2 m.
+        los = math.atan2(first.y_mm - second.y_mm, first.x_mm - second.x_mm)
+        normal = math.radians(second.yaw_deg) - math.pi / 2  # (sin yaw, -cos yaw)
+        view = math.degrees(abs(math.remainder(los - normal, 2 * math.pi)))
+        views.append(view)
+        assert view <= 45.0 + 15.0
+    assert max(views) > 30.0
     assert {"warm", "cool"} <= casts
     assert latencies == {0, 1, 2}
     assert min(gains) < 0.7 and max(gains) > 1.3
