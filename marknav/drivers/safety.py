@@ -493,7 +493,12 @@ class SafetyLayer:
             current = self._model.state
             if (lw, rw) == (0, 0):
                 ok = self._fire("stop", "zero command")
-            elif current in (_S.READY, _S.DRIVING):
+            elif current is _S.DRIVING:
+                # Already driving: the internal 'drive' transition only writes the wheels (and
+                # is not recorded), so write them directly. Going through the machine's trigger
+                # cost a third of a mission tree's tick at 20 Hz.
+                ok = self._write_checked(lw, rw)
+            elif current is _S.READY:
                 ok = self._fire("drive", "", left=lw, right=rw)
             elif current is _S.BUMPED and kind == "backoff":
                 ok = self._fire("backoff", "", left=lw, right=rw)
@@ -599,6 +604,16 @@ class SafetyLayer:
             logger.exception("safety: drive_direct(left=%d, right=%d) raised", left, right)
         else:
             self._wheels = (left, right)
+
+    def _write_checked(self, left: int, right: int) -> bool:
+        """Write outside a transition; a failed write latches a fault, as in :meth:`_fire`."""
+        self._write_error = None
+        self._write(left, right)
+        error, self._write_error = self._write_error, None
+        if error is not None:
+            self._fault(f"wheel write failed: {error}")
+            return False
+        return True
 
     def _write_command(self, *, left: int, right: int) -> None:
         self._write(left, right)

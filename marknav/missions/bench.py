@@ -64,6 +64,7 @@ def _time_route_tree(mission: Mission, *, ticks: int, warmup: int, seed: int
     from marknav.behaviours import keys
     from marknav.behaviours.route import build_route_tree
     from marknav.clock import ManualClock
+    from marknav.missions.runner import MissionTree
     from marknav.sim.world import generate_world
     from marknav.testing import FakePerception, FakeRobot, WorldMark
 
@@ -83,7 +84,7 @@ def _time_route_tree(mission: Mission, *, ticks: int, warmup: int, seed: int
         focal_px=mission.camera.focal_px, image_width=mission.camera.width,
         image_height=mission.camera.height)
     root = build_route_tree(mission, perception=perception)
-    tree = py_trees.trees.BehaviourTree(root)
+    tree = MissionTree(root)  # what marknav run ticks
     tree.setup(robot=robot, clock=clock, mission=mission)
     times: list[float] = []
     n = 0
