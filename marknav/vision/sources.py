@@ -68,7 +68,10 @@ class FrameSource(Protocol):
     def close(self) -> None: ...
 
 
-def _read_image(path: str) -> Image:
+def read_image(path: str) -> Image:
+    """Read a BGR image; :class:`InputError` naming the file if it cannot."""
+    if not Path(path).is_file():
+        raise InputError("no such file", file=path)
     image = cv2.imread(path, cv2.IMREAD_COLOR)
     if image is None:
         raise InputError("cannot read the image (missing, unreadable or not an image)", file=path)
@@ -80,7 +83,7 @@ class StillImageSource:
 
     def __init__(self, path: str, *, clock: Clock | None = None) -> None:
         self.name = path
-        self._image = _read_image(path)
+        self._image = read_image(path)
         self._clock = clock or MonotonicClock()
         self._index = 0
         self._closed = False
