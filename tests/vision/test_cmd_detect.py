@@ -1,0 +1,66 @@
+"""``marknav detect``: JSON shape, annotated output, palette from a mission, bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from marknav.cli import main
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+SMARTIES = DATA / "smarties.png"
+SLALOM = Path(__file__).resolve().parents[2] / "missions" / "slalom.yaml"
+
+
+def disc_image(tmp_path: Path) -> Path:
+    image = np.full((240, 320, 3), 200, dtype=np.uint8)
+    cv2.circle(image, (160, 120), 40, (0, 200, 0), -1, cv2.LINE_AA)  # green, BGR
+    path = tmp_path / "disc.png"
+    cv2.imwrite(str(path), image)
+    return path
+
+
+def test_json_lists_marks_per_image(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    disc = disc_image(tmp_path)
+    assert main(["detect", str(disc), str(SMARTIES), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert [d["image"] for d in data] == [str(disc), str(SMARTIES)]
+    (mark,) = data[0]["marks"]
+    assert set(mark) == {"colour", "x", "y", "radius", "axes", "angle", "shape", "score"}
+    assert mark["colour"] == "green" and mark["shape"] == "circle"
+    assert mark["x"] == pytest.approx(160, abs=1) and mark["y"] == pytest.approx(120, abs=1)
+    assert mark["radius"] == pytest.approx(40, abs=1.5)
+    assert len(data[1]["marks"]) >= 10
+
+
+def test_annotate_writes_pictures(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "out"
+    assert main(["detect", str(disc_image(tmp_path)), "--annotate", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "disc.png: 1 mark" in text and "green" in text
+    drawn = cv2.imread(str(out / "disc.annotated.png"))
+    assert drawn is not None and drawn.shape[0] >= 240
+
+
+def test_palette_from_a_mission(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # slalom's palette has no orange or yellow: only its colours can come out.
+    assert main(["detect", str(SMARTIES), "--mission", str(SLALOM), "--json"]) == 0
+    colours = {m["colour"] for m in json.loads(capsys.readouterr().out)[0]["marks"]}
+    assert colours <= {"red", "green", "blue"}
+
+
+@pytest.mark.parametrize("name", ["missing.png", "notes.txt"])
+def test_unreadable_images_exit_2_naming_the_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], name: str
+) -> None:
+    path = tmp_path / name
+    if name.endswith(".txt"):
+        path.write_text("not an image")
+    assert main(["detect", str(SMARTIES), str(path)]) == 2
+    captured = capsys.readouterr()
+    assert str(path) in captured.err
+    assert captured.out == ""  # nothing printed for the good image before failing
