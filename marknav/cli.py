@@ -23,7 +23,12 @@ log = logging.getLogger(__name__)
 
 #: Modules that each register one or more sub-commands.
 COMMANDS: tuple[str, ...] = (
+    "marknav.missions.cmd_run",
     "marknav.missions.cmd_validate",
+    "marknav.missions.cmd_tree",
+    "marknav.missions.cmd_evaluate",
+    "marknav.benchmarks",
+    "marknav.vision.cmd_detect",
     "marknav.vision.cmd_calibrate",
     "marknav.sim.cmd_sim_robot",
     "marknav.missions.cmd_schema",

@@ -5,7 +5,7 @@ deliver :class:`Frame` objects through :class:`FrameSource`, so the detector can
 
 :func:`open_source` picks the kind from a string, as ``--camera`` and ``serve-camera`` take it:
 
-- ``"0"``, ``"1"`` … — a camera device (OpenCV ``VideoCapture``);
+- ``"0"``, ``"1"`` …, ``/dev/video0`` … — a camera device (OpenCV ``VideoCapture``);
 - ``http://``, ``https://``, ``rtsp://`` — a network stream (an MJPEG stream from
   ``marknav serve-camera``, an IP camera);
 - a directory, or a glob such as ``shots/*.png`` — its images in name order, each once;
@@ -233,6 +233,10 @@ def open_source(spec: str, *, clock: Clock | None = None,
         raise InputError("empty camera name", field="--camera")
     if spec.isdigit():
         return LiveCaptureSource(spec, int(spec), clock=clock, timeout_s=timeout_s)
+    if spec.startswith("/dev/video"):
+        if not Path(spec).exists():
+            raise InputError("no such camera device", file=spec)
+        return LiveCaptureSource(spec, spec, clock=clock, timeout_s=timeout_s)
     if spec.lower().startswith(STREAM_SCHEMES):
         return LiveCaptureSource(spec, spec, clock=clock, timeout_s=timeout_s)
     path = Path(spec)

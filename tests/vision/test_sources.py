@@ -67,7 +67,8 @@ def test_video_file_frames_then_none(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("spec", "message"),
     [("missing.png", "missing.png: cannot read the image"),
-     ("nowhere/clip.mp4", "nowhere/clip.mp4: no such file, directory or camera")],
+     ("nowhere/clip.mp4", "nowhere/clip.mp4: no such file, directory or camera"),
+     ("/dev/video97", "/dev/video97: no such camera device")],
 )
 def test_bad_sources_raise_input_errors_naming_them(tmp_path: Path, spec: str,
                                                     message: str) -> None:
