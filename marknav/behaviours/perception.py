@@ -8,6 +8,10 @@ frame with the robot's odometry pose. It writes ``/marknav/frame``, ``/marknav/m
 ``/marknav/last_seen`` and refreshes the target's sighting (:func:`~marknav.behaviours.target.
 associate`), so every later node of the tick sees one consistent picture.
 
+While it watches, it calibrates odometry (``robot.calibrate_wheels``, on by default, with a robot
+that supports it): marks stand still, so their drift in the odometry frame measures the wheels'
+ratio (:mod:`marknav.planning.wheel_ratio`); each precise fit rescales the right wheel.
+
 Status: SUCCESS every tick, also when no new frame came (the previous marks stay, with their
 time), until no frame has come for ``camera_timeout_s``: then FAILURE, "camera lost", and the
 mission aborts.
@@ -18,6 +22,7 @@ mission aborts.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -26,7 +31,9 @@ from py_trees.common import Status
 from marknav.behaviours import keys
 from marknav.behaviours.base import MarknavBehaviour, SetupError, check_positive
 from marknav.behaviours.target import associate, describe, excluded_passes, with_sighting
-from marknav.planning.kinematics import to_world_frame
+from marknav.drivers.robot import WheelCalibratable
+from marknav.planning.kinematics import Pose, to_world_frame
+from marknav.planning.wheel_ratio import WheelRatioCalibrator, WheelRatioStep
 from marknav.vision.estimate import Pinhole, PowerLaw, RangeModel, estimate
 from marknav.vision.sources import FrameSource
 
@@ -36,6 +43,8 @@ if TYPE_CHECKING:
 
 __all__ = ["DEFAULT_CAMERA_TIMEOUT_S", "Observation", "Perception", "PerceptionBase",
            "range_model_of"]
+
+log = logging.getLogger(__name__)
 
 #: No frame for this long (mission-clock seconds) means the camera is lost.
 DEFAULT_CAMERA_TIMEOUT_S = 1.0
@@ -116,9 +125,12 @@ class PerceptionBase(MarknavBehaviour):
         self.feedback_message = f"frame {obs.frame.index}: {seen}{focus}"
 
     def seen_mark(self, *, colour: str, forward_mm: float, left_mm: float, x_px: float,
-                  radius_px: float, image_width: int, t: float) -> keys.SeenMark:
-        """A :class:`~marknav.behaviours.keys.SeenMark`, placed in the world by odometry."""
-        wx, wy = to_world_frame(self.robot.pose(), (forward_mm, left_mm))
+                  radius_px: float, image_width: int, t: float,
+                  pose: Pose | None = None) -> keys.SeenMark:
+        """A :class:`~marknav.behaviours.keys.SeenMark`, placed in the world by odometry
+        (``pose``, default the robot's pose now)."""
+        wx, wy = to_world_frame(pose if pose is not None else self.robot.pose(),
+                                (forward_mm, left_mm))
         return keys.SeenMark(colour=colour, forward_mm=forward_mm, left_mm=left_mm, world_x=wx,
                              world_y=wy, x_px=x_px, radius_px=radius_px, image_width=image_width,
                              t=t)
@@ -142,6 +154,9 @@ class Perception(PerceptionBase):
         self._range_model: RangeModel | None = None
         self._mark_radius_mm: float | None = None
         self._last_index: int | None = None
+        self._calibrator: WheelRatioCalibrator | None = None
+        #: Wheel-ratio corrections applied so far (newest last).
+        self.wheel_calibrations: list[WheelRatioStep] = []
 
     def configure(self, **kwargs: Any) -> None:
         camera = kwargs.get("camera")
@@ -165,6 +180,11 @@ class Perception(PerceptionBase):
                 from marknav.vision.detect import Detector
 
                 self._detector = Detector(mission.palette())
+            calibrate = mission.robot.calibrate_wheels
+            if calibrate and self._calibrator is None:
+                self._calibrator = WheelRatioCalibrator()
+            elif not calibrate:
+                self._calibrator = None
 
     def observe(self) -> Observation | None:
         if self._camera is None:
@@ -180,16 +200,41 @@ class Perception(PerceptionBase):
         height, width = frame.image.shape[:2]
         t = self.now()
         found: list[Mark] = list(self._detector.detect(frame.image))
-        marks = tuple(self._to_seen(m, width, t) for m in found)
+        robot = self.robot
+        if self._calibrator is not None and isinstance(robot, WheelCalibratable):
+            pose, sensitivity = robot.odometry_snapshot()
+            marks = tuple(self._to_seen(m, width, t, pose) for m in found)
+            self._calibrate(robot, pose, sensitivity, marks)
+        else:
+            pose = robot.pose()
+            marks = tuple(self._to_seen(m, width, t, pose) for m in found)
         info = keys.FrameInfo(index=frame.index, t=t, width=width, height=height,
                               marks=len(marks))
         return Observation(frame=info, marks=marks)
 
-    def _to_seen(self, mark: Mark, width: int, t: float) -> keys.SeenMark:
+    def _calibrate(self, robot: WheelCalibratable, pose: Pose,
+                   sensitivity: tuple[float, float, float],
+                   marks: tuple[keys.SeenMark, ...]) -> None:
+        calibrator = self._calibrator
+        assert calibrator is not None
+        for m in marks:
+            calibrator.add(m.colour, (pose.x, pose.y), m.world, sensitivity)
+        step = calibrator.correction()
+        if step is None:
+            return
+        before = robot.right_wheel_scale
+        robot.scale_right_wheel(step.factor)
+        self.wheel_calibrations.append(step)
+        fit = step.fit
+        log.info("odometry: right wheel scale %.4f -> %.4f ± %.4f (fit %+.4f ± %.4f from %d "
+                 "sightings of %d marks, residual %.0f mm)", before, robot.right_wheel_scale,
+                 step.scale_sigma, fit.epsilon, fit.sigma, fit.samples, fit.marks, fit.rms_mm)
+
+    def _to_seen(self, mark: Mark, width: int, t: float, pose: Pose) -> keys.SeenMark:
         assert self._range_model is not None and self._mark_radius_mm is not None
         est = estimate(x_px=mark.x, radius_px=mark.radius, minor_px=mark.axes[1],
                        cx=keys.image_centre(width), model=self._range_model,
                        mark_radius_mm=self._mark_radius_mm)
         return self.seen_mark(colour=mark.colour, forward_mm=est.forward_mm,
                               left_mm=est.left_mm, x_px=mark.x, radius_px=mark.radius,
-                              image_width=width, t=t)
+                              image_width=width, t=t, pose=pose)

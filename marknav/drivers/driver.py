@@ -31,7 +31,7 @@ import logging
 import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from types import TracebackType
 
 from marknav.clock import Clock, MonotonicClock
@@ -74,6 +74,8 @@ class SensorReading:
     t: float
     pose: Pose
     frame: int
+    #: ∂pose/∂(right wheel scale) since the odometry's last anchor (see Odometry.sensitivity).
+    sensitivity: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 class _WheelSink:
@@ -338,6 +340,27 @@ class CreateDriver:
         r = self.latest
         return self.odometry.pose if r is None else r.pose
 
+    def odometry_snapshot(self) -> tuple[Pose, tuple[float, float, float]]:
+        """The pose and its sensitivity to the right wheel's scale, from one reading."""
+        with self._state_lock:
+            r = self._reading
+            if r is None:
+                return self.odometry.pose, self.odometry.sensitivity()
+            return r.pose, r.sensitivity
+
+    def scale_right_wheel(self, factor: float) -> None:
+        """Calibrate odometry: the right wheel's travel counts ``factor`` times more from now on
+        (see :mod:`marknav.planning.wheel_ratio`)."""
+        with self._state_lock:
+            self.odometry.scale_right_wheel(factor)
+            if self._reading is not None:
+                self._reading = replace(self._reading, sensitivity=(0.0, 0.0, 0.0))
+
+    @property
+    def right_wheel_scale(self) -> float:
+        """The right wheel's odometry scale (1 until calibrated)."""
+        return self.odometry.right_scale
+
     def reset_odometry(self, pose: Pose | None = None) -> None:
         """Restart odometry at ``pose`` (default: the start pose)."""
         with self._state_lock:
@@ -475,5 +498,6 @@ class CreateDriver:
         with self._state_lock:
             pose = self.odometry.update(state)
             self._frames += 1
-            self._reading = SensorReading(state, t, pose, self._frames)
+            self._reading = SensorReading(state, t, pose, self._frames,
+                                          self.odometry.sensitivity())
             self._state_lock.notify_all()

@@ -51,3 +51,24 @@ class Robot(Protocol):
     def fault_reason(self) -> str | None:
         """Why the robot is in fault or e-stop, else ``None``."""
         ...
+
+
+@runtime_checkable
+class WheelCalibratable(Protocol):
+    """A robot whose odometry can be calibrated from sightings (the Create driver).
+
+    Optional: behaviours check ``isinstance(robot, WheelCalibratable)`` before using it.
+    """
+
+    def odometry_snapshot(self) -> tuple[Pose, tuple[float, float, float]]:
+        """The pose and ∂pose/∂(right wheel scale) since the last calibration step."""
+        ...
+
+    def scale_right_wheel(self, factor: float) -> None:
+        """Count the right wheel's travel ``factor`` times more from now on."""
+        ...
+
+    @property
+    def right_wheel_scale(self) -> float:
+        """The right wheel's odometry scale (1 until calibrated)."""
+        ...

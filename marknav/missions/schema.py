@@ -163,6 +163,12 @@ class Robot(BaseModel):
         "is 500).",
         json_schema_extra={"maximum": CREATE_MAX_SPEED_MM_S},
     )
+    calibrate_wheels: bool = Field(
+        default=True,
+        description="Calibrate the right/left wheel ratio of odometry from mark sightings while "
+        "driving (marks stand still, so their drift in the odometry frame is odometry's heading "
+        "error). Turn off to keep the raw encoder odometry.",
+    )
 
     @field_validator("max_speed_mm_s")
     @classmethod
