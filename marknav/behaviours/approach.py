@@ -17,6 +17,12 @@ With ``navigation.approach_aim: side`` the aim moves from the mark's centre to t
 left for a mark passed on its left). The robot then heads for where it will pass instead of at
 the mark, which keeps it clear of a mark it just passed when the route turns back past it.
 
+Marks already passed are obstacles on the way to the next: when the heading toward the aim would
+bring the robot's centre within ``clearance_mm + bypass_margin_mm`` of a passed mark ahead of it
+(its position as recorded when it was passed), the heading turns to the tangent of that circle on
+the aim's side (:func:`keep_clear`). A route that doubles back past a mark (a figure eight) then
+skirts it instead of grazing it.
+
 Between frames (the target's sighting is older than the latest frame) the mark's world estimate
 and the odometry pose stand in for the pixels. SUCCESS when the estimated distance along the
 heading (the paper's d_yp) is at most ``bypass_distance_mm``; FAILURE when the target has not been
@@ -34,7 +40,10 @@ from marknav.behaviours import keys
 from marknav.behaviours.base import DrivingBehaviour, SetupError, check_positive, pick
 from marknav.planning.kinematics import WheelSpeeds, scale_to_limit, to_robot_frame
 
-__all__ = ["THRESHOLD_SPEED_FRACTION", "ApproachWhileCentring", "centring_command"]
+__all__ = ["THRESHOLD_SPEED_FRACTION", "ApproachWhileCentring", "centring_command", "keep_clear"]
+
+#: A passed mark this close to the target's estimate is the target itself (a revisited mark).
+SAME_MARK_MM = 400.0
 
 #: Speed at the bypass threshold as a fraction of the approach speed; the bypass cruises at the
 #: same fraction by default, so the hand-over is smooth.
@@ -69,6 +78,37 @@ def centring_command(
                           max_wheel_mm_s)
 
 
+def keep_clear(angle_rad: float, obstacles: list[tuple[float, float]], keep_mm: float,
+               reach_mm: float) -> float:
+    """The heading (robot frame, positive left) nearest ``angle_rad`` whose ray keeps
+    ``keep_mm`` from every obstacle point ``(forward, left)`` ahead within ``reach_mm``.
+
+    An obstacle whose closest approach along the ray is behind the robot or beyond ``reach_mm``
+    is ignored. Otherwise, if the ray passes within ``keep_mm``, the heading turns to the tangent
+    of the keep-out circle on the side the ray was heading (the nearest such obstacle wins);
+    from inside the circle, it turns straight away from it. Pure function.
+    """
+    best = angle_rad
+    nearest = math.inf
+    for f, lft in obstacles:
+        rho = math.hypot(f, lft)
+        if rho > reach_mm or rho >= nearest:
+            continue
+        along = f * math.cos(angle_rad) + lft * math.sin(angle_rad)
+        if along <= 0.0:
+            continue
+        across = -f * math.sin(angle_rad) + lft * math.cos(angle_rad)  # > 0: obstacle left
+        if abs(across) >= keep_mm:
+            continue
+        bearing = math.atan2(lft, f)
+        if rho <= keep_mm:
+            turned = bearing - math.copysign(0.5 * math.pi, across)
+        else:
+            turned = bearing - math.copysign(math.asin(keep_mm / rho), across)
+        best, nearest = turned, rho
+    return best
+
+
 class ApproachWhileCentring(DrivingBehaviour):
     """Approach the target, keeping it centred in the image; SUCCESS at the bypass threshold.
 
@@ -85,7 +125,7 @@ class ApproachWhileCentring(DrivingBehaviour):
     Setup: ``robot``, ``clock``, ``mission`` (wheel base, speed limit, focal length).
     """
 
-    READS: ClassVar[tuple[str, ...]] = (keys.TARGET, keys.FRAME)
+    READS: ClassVar[tuple[str, ...]] = (keys.TARGET, keys.FRAME, keys.PASSED)
 
     def __init__(
         self,
@@ -133,6 +173,8 @@ class ApproachWhileCentring(DrivingBehaviour):
                              what="camera.focal_px"),
             "aim_offset_mm": (m.navigation.clearance_mm
                               if m is not None and m.navigation.approach_aim == "side" else 0.0),
+            "keep_mm": (m.navigation.clearance_mm + m.navigation.bypass_margin_mm
+                        if m is not None else 0.0),
         }
 
     def initialise(self) -> None:
@@ -165,6 +207,8 @@ class ApproachWhileCentring(DrivingBehaviour):
         if s["aim_offset_mm"] > 0.0:  # aim beside the mark, on its pass side
             sigma = 1.0 if target.side == "left" else -1.0
             angle += sigma * math.atan2(s["aim_offset_mm"], forward)
+        if s["keep_mm"] > 0.0:
+            angle = self._around_passed(angle, target, forward)
         cmd = centring_command(
             angle_rad=angle, forward_mm=forward, speed_mm_s=s["speed_mm_s"],
             bypass_distance_mm=s["bypass_distance_mm"], steer_gain=self.steer_gain,
@@ -178,3 +222,17 @@ class ApproachWhileCentring(DrivingBehaviour):
                                  f"{abs(deg):.0f}° {'left' if deg > 0 else 'right'}, "
                                  f"{cmd.linear:.0f} mm/s")
         return Status.RUNNING
+
+    def _around_passed(self, angle: float, target: keys.Target, forward: float) -> float:
+        """Turn ``angle`` around the marks passed so far (not the target itself)."""
+        passed: tuple[keys.PassedWaypoint, ...] = self.read(keys.PASSED, ()) or ()
+        if not passed:
+            return angle
+        assert target.world is not None
+        pose = self.robot.pose()
+        obstacles = []
+        for p in passed:
+            if math.hypot(p.mark_x - target.world[0], p.mark_y - target.world[1]) < SAME_MARK_MM:
+                continue
+            obstacles.append(to_robot_frame(pose, (p.mark_x, p.mark_y)))
+        return keep_clear(angle, obstacles, self.settings["keep_mm"], reach_mm=forward)

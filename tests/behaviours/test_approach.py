@@ -9,7 +9,8 @@ import py_trees
 import pytest
 from py_trees.common import Status
 
-from marknav.behaviours.approach import ApproachWhileCentring, centring_command
+from marknav.behaviours import keys
+from marknav.behaviours.approach import ApproachWhileCentring, centring_command, keep_clear
 from marknav.behaviours.target import SelectTarget
 
 
@@ -113,3 +114,63 @@ def test_side_aim_heads_for_the_pass_point(rig, mission_factory, colour, sign):
     v = 250.0 * math.cos(angle)
     assert (cmd.left, cmd.right) == (round(v - 2.0 * angle * 117.5),
                                      round(v + 2.0 * angle * 117.5))
+
+
+# -- keeping clear of marks already passed ---------------------------------------------------
+
+
+def test_keep_clear_turns_to_the_tangent_of_an_obstacle_in_the_way() -> None:
+    keep = 340.0
+    # 1 m ahead, 200 mm left of the straight-ahead ray: turn right to the tangent
+    turned = keep_clear(0.0, [(1000.0, 200.0)], keep, reach_mm=3000.0)
+    rho, bearing = math.hypot(1000.0, 200.0), math.atan2(200.0, 1000.0)
+    assert turned == pytest.approx(bearing - math.asin(keep / rho))
+    assert turned < 0.0
+    # the new ray passes exactly at the keep-out distance
+    assert abs(-1000.0 * math.sin(turned) + 200.0 * math.cos(turned)) == pytest.approx(keep)
+    # the mirror case turns left
+    assert keep_clear(0.0, [(1000.0, -200.0)], keep, reach_mm=3000.0) == pytest.approx(-turned)
+
+
+@pytest.mark.parametrize("obstacle", [
+    (-300.0, 100.0),   # behind the robot
+    (1000.0, 400.0),   # the ray already keeps 400 > 340 mm
+    (3500.0, 0.0),     # beyond the target
+])
+def test_keep_clear_leaves_a_clear_heading_alone(obstacle: tuple[float, float]) -> None:
+    assert keep_clear(0.0, [obstacle], 340.0, reach_mm=3000.0) == 0.0
+
+
+def test_keep_clear_from_inside_the_circle_turns_away_and_the_nearest_obstacle_wins() -> None:
+    assert keep_clear(0.0, [(200.0, 50.0)], 340.0, reach_mm=3000.0) == pytest.approx(
+        math.atan2(50.0, 200.0) - math.pi / 2)
+    far, near = (1500.0, -100.0), (800.0, 150.0)
+    assert keep_clear(0.0, [far, near], 340.0, reach_mm=3000.0) == pytest.approx(
+        keep_clear(0.0, [near], 340.0, reach_mm=3000.0))
+
+
+def _passed(colour: str, x: float, y: float) -> keys.PassedWaypoint:
+    return keys.PassedWaypoint(waypoint=0, waypoint_id=f"{colour}-0", colour=colour,
+                               side="left", t=0.0, mark_x=x, mark_y=y)
+
+
+@pytest.mark.parametrize(("passed_x", "passed_y", "turns"), [
+    (-100.0, 1200.0, True),    # a passed mark 100 mm left of the way ahead: skirt it
+    (0.0, 3050.0, False),      # the target itself, passed before (a revisit): not an obstacle
+    (-100.0, -600.0, False),   # behind
+])
+def test_approach_skirts_marks_already_passed(rig, passed_x, passed_y, turns):
+    rig.perception.place("red", x_mm=0, y_mm=3000)  # dead ahead, 3 m
+    py_trees.blackboard.Blackboard.set(keys.PASSED, (_passed("green", passed_x, passed_y),))
+    tree, _ = approach_tree(rig)
+    tree.tick()
+    cmd = first_command(rig)
+    if not turns:
+        assert cmd.left == cmd.right
+        return
+    keep = 300.0 + 40.0  # clearance_mm + bypass_margin_mm
+    rho = math.hypot(passed_x, passed_y)
+    angle = math.atan2(-passed_x, passed_y) - math.asin(keep / rho)  # to the right
+    assert cmd.left > cmd.right
+    omega = max(-math.radians(60.0), min(math.radians(60.0), 2.0 * angle))
+    assert (cmd.right - cmd.left) / 235.0 == pytest.approx(omega, abs=0.01)
