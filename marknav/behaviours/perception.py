@@ -217,6 +217,10 @@ class Perception(PerceptionBase):
                    marks: tuple[keys.SeenMark, ...]) -> None:
         calibrator = self._calibrator
         assert calibrator is not None
+        if calibrator.samples == 0 and sensitivity != (0.0, 0.0, 0.0):
+            # a new window: its sensitivities count from here (they stay small and linear)
+            robot.anchor_odometry()
+            sensitivity = (0.0, 0.0, 0.0)
         for m in marks:
             calibrator.add(m.colour, (pose.x, pose.y), m.world, sensitivity)
         step = calibrator.correction()

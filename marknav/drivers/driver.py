@@ -356,6 +356,13 @@ class CreateDriver:
             if self._reading is not None:
                 self._reading = replace(self._reading, sensitivity=(0.0, 0.0, 0.0))
 
+    def anchor_odometry(self) -> None:
+        """Restart the odometry's sensitivity to the wheel scale from zero at the current pose."""
+        with self._state_lock:
+            self.odometry.anchor()
+            if self._reading is not None:
+                self._reading = replace(self._reading, sensitivity=(0.0, 0.0, 0.0))
+
     @property
     def right_wheel_scale(self) -> float:
         """The right wheel's odometry scale (1 until calibrated)."""

@@ -65,7 +65,11 @@ class WheelCalibratable(Protocol):
         ...
 
     def scale_right_wheel(self, factor: float) -> None:
-        """Count the right wheel's travel ``factor`` times more from now on."""
+        """Count the right wheel's travel ``factor`` times more from now on (and re-anchor)."""
+        ...
+
+    def anchor_odometry(self) -> None:
+        """Restart the sensitivity from zero at the current pose."""
         ...
 
     @property

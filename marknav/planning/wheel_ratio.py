@@ -124,7 +124,11 @@ class WheelRatioCalibrator:
         max_epsilon: a fitted |ε| above this is taken for a misassociation and dropped.
         max_rms_mm: a fit whose sightings still scatter more than this is dropped (the model
             does not explain them: a misassociation, a bump, a moved mark).
-        max_samples: a window that never becomes precise enough restarts after this many.
+        max_samples: a window that never becomes precise enough ends after this many.
+
+    Every sighting of a window must carry a sensitivity from the same anchor: re-anchor the
+    odometry whenever a window starts (``samples == 0``), as :class:`~marknav.behaviours.
+    perception.Perception` does.
         prior_sigma: the scale's prior standard deviation around 1.
         fit_inflation: each fit's ``sigma`` is multiplied by this in the filter.
         drift_sigma: random walk of the scale per step (lets it follow slow changes).
@@ -163,8 +167,6 @@ class WheelRatioCalibrator:
         """One sighting: the mark ``colour`` estimated at ``mark_xy`` from ``pose_xy``."""
         if math.hypot(mark_xy[0] - pose_xy[0], mark_xy[1] - pose_xy[1]) > self.max_range_mm:
             return
-        if self._count >= self.max_samples:
-            self.reset()
         grad = mark_sensitivity(pose_xy, mark_xy, sensitivity)
         cluster = None
         for c in self._clusters:
@@ -191,6 +193,8 @@ class WheelRatioCalibrator:
             return None
         result = self.fit()
         if result is None or result.sigma > self.max_sigma:
+            if self._count >= self.max_samples:
+                self.reset()  # never precise enough: start again
             return None
         self.reset()
         if abs(result.epsilon) > self.max_epsilon or result.rms_mm > self.max_rms_mm:

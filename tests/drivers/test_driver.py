@@ -215,6 +215,34 @@ def test_reset_odometry(rig: Rig) -> None:
     assert rig.driver.pose().x == pytest.approx(10.0 + rig.sim.pose.y - y0, abs=0.5)
 
 
+def test_a_calibrated_right_wheel_makes_odometry_follow_a_mismatched_robot() -> None:
+    """The simulated right wheel moves the ground 4 % less than its encoder counts: raw odometry
+    veers off; once the driver is told the ratio (what Perception learns from marks), it follows
+    the truth. The snapshot's sensitivity counts from the last anchor."""
+    r = Rig(right_scale=0.96)
+    try:
+        r.driver.connect()
+        r.tick()
+        r.run(1.0, left=200, right=200)
+        pose, sens = r.driver.odometry_snapshot()
+        assert pose == r.driver.pose()
+        assert sens[2] > 0.0  # more right-wheel travel turns the robot left
+        drift = abs(r.sim.pose.theta - pose.theta)
+        assert drift > 0.02  # ~0.03 rad after 200 mm per wheel
+        r.driver.scale_right_wheel(0.96)
+        assert r.driver.right_wheel_scale == pytest.approx(0.96)
+        assert r.driver.odometry_snapshot()[1] == (0.0, 0.0, 0.0)
+        theta0, true0 = r.driver.pose().theta, r.sim.pose.theta
+        r.run(1.0, left=200, right=200)
+        turned_odo = r.driver.pose().theta - theta0
+        turned_true = r.sim.pose.theta - true0
+        assert turned_odo == pytest.approx(turned_true, abs=0.002)
+        r.driver.anchor_odometry()
+        assert r.driver.odometry_snapshot()[1] == (0.0, 0.0, 0.0)
+    finally:
+        r.close()
+
+
 # --- the reader thread, real time ------------------------------------------------------------
 
 def test_reader_thread_against_a_real_time_simulator() -> None:

@@ -108,6 +108,8 @@ def test_calibrator_learns_the_wheel_ratio_from_one_marks_sightings(true_ratio: 
         rng_mm = math.hypot(fwd, lft) * (1.0 + rng.gauss(0.0, 0.01))
         bearing = math.atan2(lft, fwd) + rng.gauss(0.0, 1.0 / 590.0)
         seen = to_world_frame(odo.pose, (rng_mm * math.cos(bearing), rng_mm * math.sin(bearing)))
+        if cal.samples == 0:
+            odo.anchor()  # each window's sensitivities count from its start
         cal.add("red", (odo.pose.x, odo.pose.y), seen, odo.sensitivity())
         step = cal.correction()
         if step is not None:
