@@ -485,7 +485,8 @@ class Detector:
         Measured on a ≈ 48-pixel-wide subsample. Only pixels that already look grey count: the
         less saturated part of the frame (saturation up to 25 above its 40th percentile, within
         60..160, so a strong cast that lifts grey to S ≈ 100 still counts as grey while marks
-        at S ≈ 255 do not), neither black nor clipped. A second pass keeps the pixels that are
+        at S ≈ 255 do not), neither black nor clipped (unless nearly all greys are clipped, as in
+        an overexposed frame: then the clipped ones count). A second pass keeps the pixels that are
         grey (``S < 40``) after the first gains. Coloured marks and clutter therefore cannot
         pull the gains, however large they are in the frame. With fewer than 5 % grey pixels
         there is nothing to balance against: gains 1. Gains are clamped to
@@ -502,8 +503,12 @@ class Detector:
         hist = cv2.calcHist([hsv], [1], None, [256], [0, 256]).ravel()
         s40 = int(np.searchsorted(np.cumsum(hist), 0.4 * float(hist.sum())))
         s_max = min(160, max(60, s40 + 25))
-        for _ in range(2):
+        for attempt in range(2):
             greyish = cv2.inRange(hsv, (0, 0, 16), (255, s_max, 250))
+            if attempt == 0 and cv2.countNonZero(greyish) < 0.05 * greyish.size:
+                # An overexposed scene: its greys are clipped. Clipping flattens a cast but keeps
+                # its direction, so the clipped near-whites still say which way to correct.
+                greyish = cv2.inRange(hsv, (0, 0, 16), (255, s_max, 255))
             if cv2.countNonZero(greyish) < 0.05 * greyish.size:
                 break
             mean = cv2.mean(tiny, mask=greyish)
@@ -1347,9 +1352,21 @@ def _fit_arc(pts: FloatArray, iterations: int = 0) -> _Ellipse | None:
     return circle
 
 
+def _centre_in(a: Mark, b: Mark) -> bool:
+    """Whether ``a``'s centre lies inside ``b``'s ellipse."""
+    t = math.radians(b.angle_deg)
+    dx, dy = a.x - b.x, a.y - b.y
+    u = (dx * math.cos(t) + dy * math.sin(t)) / max(b.axes[0], 1e-9)
+    v = (-dx * math.sin(t) + dy * math.cos(t)) / max(b.axes[1], 1e-9)
+    return u * u + v * v < 1.0
+
+
 def _suppress_duplicates(marks: list[Mark]) -> list[Mark]:
     """Drop a mark whose centre lies inside a better-scoring mark of similar size, and a mark
-    that holds the centres of two smaller marks (an outline fitted across touching marks)."""
+    that holds the centres of two smaller marks (an outline fitted across touching marks).
+    Of two marks one of whose centres lies inside the other, only the better-scoring one
+    stands: a visible mark's centre cannot be behind another mark's face, so one of the two is
+    an outline fitted across a mark and something touching it (clutter of the same colour)."""
     def inside(small: Mark, big: Mark) -> bool:
         return small.radius < 0.8 * big.radius and \
             math.hypot(small.x - big.x, small.y - big.y) < big.radius
@@ -1357,8 +1374,9 @@ def _suppress_duplicates(marks: list[Mark]) -> list[Mark]:
     kept: list[Mark] = []
     for mark in sorted(marks, key=lambda m: -m.score):
         duplicate = any(
-            math.hypot(mark.x - k.x, mark.y - k.y) < 0.5 * min(mark.radius, k.radius)
-            and 0.6 <= mark.radius / k.radius <= 1.67
+            (math.hypot(mark.x - k.x, mark.y - k.y) < 0.5 * min(mark.radius, k.radius)
+             and 0.6 <= mark.radius / k.radius <= 1.67)
+            or _centre_in(mark, k) or _centre_in(k, mark)
             for k in kept
         )
         if not duplicate:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import colorsys
 import math
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -296,3 +297,57 @@ def test_a_sliver_at_the_edge_is_not_a_mark() -> None:
     big = canvas(240, 320)
     disc(big, -26.0, 120.0, 30.0, bgr(GREEN.centre_hue))  # 4 px of it in the image
     assert Detector((GREEN,)).detect(finish(big)) == []
+
+
+# --- cases found by the slalom evaluation ------------------------------------------------------
+# Frames rendered by marknav's simulator (tests/data/sim-frames, see its README) where the run
+# failed; the truth is the simulator's. Range from the radius with slalom.yaml's law.
+
+SIM_FRAMES = Path(__file__).resolve().parents[1] / "data" / "sim-frames"
+SIM_PALETTE = (RED, GREEN, BLUE)
+
+
+def sim_range_mm(radius_px: float) -> float:
+    return 59385.0 * radius_px ** -1.0013  # d = a·r^b (eq. 19), the simulator's calibration
+
+
+def test_an_overexposed_cool_scene_is_still_balanced() -> None:
+    """Evaluation seed 1071 (gain 1.49, cool cast): the wall is clipped near-white, so no grey
+    pixel was left to balance against; the bluish floor (S ≈ 107) then passed the saturation
+    floor, swallowed the marks standing on it and none was found. The clipped whites still give
+    the cast's direction."""
+    big = canvas(240, 320, grey=(205.0, 200.0, 160.0))
+    big[120 * S:] = (126.0, 105.0, 73.0)  # the floor
+    disc(big, 220.0, 120.0, 40.0, (6.0, 0.0, 200.0), b=28.0, angle=90.0)  # red, on the horizon
+    disc(big, 130.0, 120.0, 18.0, (30.0, 200.0, 0.0), b=14.0, angle=90.0)  # green
+    image = finish(big, gain=(1.25, 1.25, 1.25), noise=4.0)
+    detector = Detector((RED, GREEN, BLUE))
+    marks = detector.detect(image)
+    red, green = only(marks, "red"), only(marks, "green")
+    assert red.radius == pytest.approx(40.0, abs=1.0)
+    assert green.radius == pytest.approx(18.0, abs=1.0)
+    b, _, r = detector.last_gains
+    assert b < 1.0 < r  # the cool cast was corrected
+
+
+@pytest.mark.parametrize(("colour", "forward_mm"), [("red", 1429.0), ("green", 3191.5),
+                                                    ("red", 5118.6), ("blue", 6752.6)])
+def test_sim_frame_overexposed_and_cool(colour: str, forward_mm: float) -> None:
+    """Seed 1071, first frame: gain 1.49 and a cool cast clip the wall to near-white; before the
+    fix no grey was left to balance against, the bluish floor passed the saturation floor,
+    swallowed the marks standing on it, and the robot drove into the first red mark."""
+    image = cv2.imread(str(SIM_FRAMES / "seed1071-overexposed-cool.jpg"))
+    marks = [m for m in Detector(SIM_PALETTE).detect(image) if m.colour == colour]
+    assert any(sim_range_mm(m.radius) == pytest.approx(forward_mm, rel=0.05) for m in marks), \
+        marks
+
+
+def test_sim_frame_red_mark_touching_red_clutter() -> None:
+    """Seed 1083 at t = 21.7 s (cropped): a red mark 990 mm ahead touches a dark red rectangle.
+    Before the fix it came out twice — itself and a 95 px ellipse fitted across both, which
+    looked 600 mm nearer, so the robot bypassed too early. A mark's centre cannot lie inside
+    another mark's face: the better fit stands alone."""
+    image = cv2.imread(str(SIM_FRAMES / "seed1083-red-touching-red-clutter.png"))
+    (red,) = Detector(SIM_PALETTE).detect(image)
+    assert red.colour == "red"
+    assert sim_range_mm(red.radius) == pytest.approx(990.0, rel=0.03)
