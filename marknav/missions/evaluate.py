@@ -8,6 +8,9 @@ deterministic for their seed, so they can run in parallel processes without chan
 
 Statistics:
 
+- success: the tree completed the route *and* the simulator's ground truth confirms every mark
+  was passed on its colour's side (a run the tree believes complete but the truth denies is a
+  failure, with the truth's reason);
 - success rate with the Wilson score interval (Wilson 1927; Newcombe 1998, method 3):
   for k successes in n runs, p̂ = k/n and z the normal quantile,
   centre = (p̂ + z²/2n) / (1 + z²/n), half-width = z·√(p̂(1−p̂)/n + z²/4n²) / (1 + z²/n);
@@ -148,7 +151,20 @@ class SeedResult:
 
     @property
     def success(self) -> bool:
-        return self.outcome == SUCCESS
+        """The tree completed the route and the ground truth agrees: every mark passed, each on
+        its colour's side. (Collisions and thin clearances are counted apart.)"""
+        return self.outcome == SUCCESS and not self.wrong_side and not self.unverified
+
+    @property
+    def failure_reason(self) -> str:
+        """Why the run is not a success: the tree's reason, or what the ground truth denies."""
+        if self.outcome != SUCCESS:
+            return self.reason
+        denied = [f"waypoint {i} ({w.colour}) "
+                  + (f"passed on its {w.passed_on}, not its {w.side}" if w.wrong_side
+                     else "declared passed but never passed")
+                  for i, w in enumerate(self.waypoints, start=1) if w.wrong_side or w.unverified]
+        return "the tree completed the route, but the ground truth says: " + "; ".join(denied)
 
     @property
     def wrong_side(self) -> int:
@@ -303,7 +319,7 @@ class Evaluation:
                            "max": round(self.sim_time_max_s, 2)},
             "wall_time_s": round(self.wall_time_mean_s, 3),
             "evaluation_wall_s": round(self.wall_total_s, 2),
-            "failures": [{"seed": f.seed, "outcome": f.outcome, "reason": f.reason,
+            "failures": [{"seed": f.seed, "outcome": f.outcome, "reason": f.failure_reason,
                           "replay": self.replay(f.seed)} for f in self.failures],
             "incidents": [{"seed": s.seed, "problems": problems, "replay": self.replay(s.seed)}
                           for s, problems in self.incidents],
@@ -475,7 +491,8 @@ def format_evaluation(ev: Evaluation) -> str:
     if ev.failures:
         lines.append(f"failures ({len(ev.failures)}):")
         for f in ev.failures:
-            lines.append(f"  seed {f.seed}: {f.outcome} — {f.reason}")
+            what = f.failure_reason if f.outcome == SUCCESS else f"{f.outcome} — {f.reason}"
+            lines.append(f"  seed {f.seed}: {what}")
             lines.append(f"    replay: {ev.replay(f.seed)}")
     incidents = [(s, p) for s, p in ev.incidents if s.success]
     if incidents:

@@ -107,8 +107,9 @@ def test_summarise_counts_what_went_wrong() -> None:
     ev = summarise(synthetic(), mission="m", mission_path="missions/m.yaml", clearance_mm=300.0,
                    min_success=0.95)
     assert [s.seed for s in ev.results] == [10, 11, 12, 13, 14]
-    assert ev.runs == 5 and ev.successes == 3 and ev.success_rate == pytest.approx(0.6)
-    assert ev.success_ci95 == pytest.approx(wilson_interval(3, 5))
+    # seed 11: the tree completed, but the ground truth has red passed on the wrong side
+    assert ev.runs == 5 and ev.successes == 2 and ev.success_rate == pytest.approx(0.4)
+    assert ev.success_ci95 == pytest.approx(wilson_interval(2, 5))
     assert ev.collisions == 4 and ev.runs_with_collisions == 2
     assert ev.wrong_side == 1  # seed 11, waypoint 1: red passed on its right
     # Passed waypoints only: 10: 300, 310; 11: 305, 290; 12: 240 (waypoint 2 failed); 13: 298,
@@ -119,7 +120,9 @@ def test_summarise_counts_what_went_wrong() -> None:
     assert ev.clearance_target_mm == 250.0 and ev.clearance_below_target == 1
     assert ev.sim_time_median_s == 42.0 and ev.sim_time_max_s == 140.0
     assert ev.wall_time_mean_s == pytest.approx(8.0)
-    assert [(f.seed, f.outcome, f.reason) for f in ev.failures] == [
+    assert [(f.seed, f.outcome, f.failure_reason) for f in ev.failures] == [
+        (11, "success", "the tree completed the route, but the ground truth says: waypoint 1 "
+                        "(red) passed on its right, not its left"),
         (12, "aborted", "BackOff: bumped 3 times"), (14, "failed", "time limit: 140 s")]
     assert not ev.passed
     incidents = {s.seed: problems for s, problems in ev.incidents}
@@ -137,10 +140,10 @@ def test_json_has_the_documented_keys_and_replay_commands() -> None:
     for key in ("runs", "success_rate", "success_ci95", "collisions", "wrong_side",
                 "min_clearance_mm", "clearance_p05_mm", "failures", "sim_time_s", "wall_time_s"):
         assert key in d, key
-    assert d["runs"] == 5 and d["success_rate"] == 0.6
-    assert d["success_ci95"] == [round(v, 4) for v in wilson_interval(3, 5)]
+    assert d["runs"] == 5 and d["success_rate"] == 0.4
+    assert d["success_ci95"] == [round(v, 4) for v in wilson_interval(2, 5)]
     assert d["sim_time_s"] == {"median": 42.0, "max": 140.0}
-    assert d["failures"][0] == {
+    assert d["failures"][1] == {
         "seed": 12, "outcome": "aborted", "reason": "BackOff: bumped 3 times",
         "replay": "marknav run 'missions/my m.yaml' --world random --seed 12 --max-time 90"}
     assert [r["seed"] for r in d["results"]] == [10, 11, 12, 13, 14]
@@ -155,13 +158,14 @@ def test_replay_command() -> None:
 def test_text_summary_lists_failures_and_incidents() -> None:
     ev = summarise(synthetic(), mission="m", mission_path="m.yaml", clearance_mm=300.0)
     text = format_evaluation(ev)
-    assert "success      3/5 = 60.0%" in text
+    assert "success      2/5 = 40.0%" in text
     assert "collisions   4 (in 2 runs)" in text
     assert "wrong side   1 mark passed on the wrong side" in text
     assert "clearance    min 240 mm, 5th percentile" in text
     assert "  seed 14: failed — time limit: 140 s\n    replay: marknav run m.yaml --world random " \
            "--seed 14" in text
-    assert "  seed 11: waypoint 1 (red) passed on its right, not its left" in text
+    assert "  seed 11: the tree completed the route, but the ground truth says: " \
+           "waypoint 1 (red) passed on its right, not its left" in text
 
 
 def test_no_passed_waypoint_has_no_clearance() -> None:
