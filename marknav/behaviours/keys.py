@@ -28,7 +28,7 @@ call :func:`reset` before each run (the ``blackboard`` pytest fixture clears it 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import py_trees
@@ -95,11 +95,11 @@ class SeenMark:
     radius_px: float
     image_width: int
     t: float
+    #: Straight-line distance from the robot to the mark centre (mm), computed once.
+    range_mm: float = field(init=False, repr=False, compare=False)
 
-    @property
-    def range_mm(self) -> float:
-        """Straight-line distance from the robot to the mark centre (mm)."""
-        return math.hypot(self.forward_mm, self.left_mm)
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "range_mm", math.hypot(self.forward_mm, self.left_mm))
 
     @property
     def bearing_rad(self) -> float:

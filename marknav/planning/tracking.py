@@ -14,6 +14,7 @@ No I/O, no clock: callers pass poses and elapsed times.
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Sequence
 
@@ -129,6 +130,7 @@ class PurePursuit:
         self._seg = seg
         self._seg_len = np.hypot(seg[:, 0], seg[:, 1])
         self._cum = np.concatenate(([0.0], np.cumsum(self._seg_len)))
+        self._cum_list: list[float] = self._cum.tolist()  # bisect beats searchsorted on scalars
         self.length_mm = float(self._cum[-1])
         end_dir = seg[-1] / self._seg_len[-1]
         self.end: Vec2 = (float(self.points[-1, 0]), float(self.points[-1, 1]))
@@ -139,14 +141,16 @@ class PurePursuit:
 
     def _closest(self, xy: Vec2, lo_mm: float, hi_mm: float) -> float:
         """Arc length of the path point closest to ``xy`` among segments in [lo_mm, hi_mm]."""
-        first = max(0, int(np.searchsorted(self._cum, lo_mm, side="right")) - 1)
-        last = min(len(self._seg), int(np.searchsorted(self._cum, hi_mm, side="right")))
+        first = max(0, bisect.bisect_right(self._cum_list, lo_mm) - 1)
+        last = min(len(self._seg), bisect.bisect_right(self._cum_list, hi_mm))
         last = max(last, first + 1)
         starts = self.points[first:last]
         seg = self._seg[first:last]
         length2 = self._seg_len[first:last] ** 2
         rel = np.asarray(xy) - starts
-        u = np.clip(np.einsum("ij,ij->i", rel, seg) / length2, 0.0, 1.0)
+        u = np.einsum("ij,ij->i", rel, seg) / length2
+        np.maximum(u, 0.0, out=u)
+        np.minimum(u, 1.0, out=u)
         foot = starts + u[:, None] * seg
         d2 = np.sum((foot - np.asarray(xy)) ** 2, axis=1)
         k = int(np.argmin(d2))
@@ -159,7 +163,7 @@ class PurePursuit:
             return (self.end[0] + extra * self.end_direction[0],
                     self.end[1] + extra * self.end_direction[1])
         s = max(0.0, s_mm)
-        i = min(int(np.searchsorted(self._cum, s, side="right")) - 1, len(self._seg) - 1)
+        i = min(bisect.bisect_right(self._cum_list, s) - 1, len(self._seg) - 1)
         u = (s - self._cum[i]) / self._seg_len[i]
         p = self.points[i] + u * self._seg[i]
         return (float(p[0]), float(p[1]))

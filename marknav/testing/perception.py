@@ -117,6 +117,10 @@ class FakePerception(PerceptionBase):
             return False
         x_px, r_px = pinhole_pixels(forward_mm, left_mm, focal_px=self.focal_px,
                                     radius_mm=self.mark_radius_mm, image_width=self.image_width)
+        return self._fits(x_px, r_px)
+
+    def _fits(self, x_px: float, r_px: float) -> bool:
+        """Large enough, and the whole disc inside the image."""
         return (r_px >= self.min_radius_px and x_px - r_px >= 0.0
                 and x_px + r_px <= self.image_width - 1
                 and 2.0 * r_px <= self.image_height - 1)
@@ -146,16 +150,16 @@ class FakePerception(PerceptionBase):
         available, scripted = self._scripted(tick, t)
         if not available:
             return None
-        relative: list[tuple[str, float, float]] = [
-            (m.colour, m.forward_mm, m.left_mm) for m in scripted]
+        relative: list[tuple[str, float, float, float, float]] = [
+            (m.colour, m.forward_mm, m.left_mm,
+             *pinhole_pixels(m.forward_mm, m.left_mm, focal_px=self.focal_px,
+                             radius_mm=self.mark_radius_mm, image_width=self.image_width))
+            for m in scripted]
         if self.world:
             relative.extend(self._in_view(self._view_pose()))
         marks = []
         odometry = self.robot.pose() if relative else None  # where the robot believes it is
-        for colour, forward, left in relative:
-            x_px, r_px = pinhole_pixels(forward, left, focal_px=self.focal_px,
-                                        radius_mm=self.mark_radius_mm,
-                                        image_width=self.image_width)
+        for colour, forward, left, x_px, r_px in relative:
             marks.append(self.seen_mark(colour=colour, forward_mm=forward, left_mm=left,
                                         x_px=x_px, radius_px=r_px,
                                         image_width=self.image_width, t=t, pose=odometry))
@@ -164,10 +168,11 @@ class FakePerception(PerceptionBase):
                               height=self.image_height, marks=len(marks))
         return Observation(frame=info, marks=tuple(marks))
 
-    def _in_view(self, pose: Pose) -> list[tuple[str, float, float]]:
-        """``(colour, forward, left)`` of the world marks in view from ``pose``: a cheap cull
-        (in front, near enough to look large enough, inside a slightly widened field of view)
-        before the exact :meth:`visible`, so a long course costs little per tick."""
+    def _in_view(self, pose: Pose) -> list[tuple[str, float, float, float, float]]:
+        """``(colour, forward, left, x_px, radius_px)`` of the world marks in view from
+        ``pose``: a cheap cull (in front, near enough to look large enough, inside a slightly
+        widened field of view) before the exact test of :meth:`visible`, so a long course costs
+        little per tick."""
         c, s = math.cos(pose.theta), math.sin(pose.theta)
         px, py = pose.x, pose.y
         radius = self.mark_radius_mm
@@ -182,8 +187,10 @@ class FakePerception(PerceptionBase):
             left = c * dy - s * dx
             if abs(left) > forward * half + radius + 1.0:
                 continue
-            if self.visible(forward, left):
-                out.append((w.colour, forward, left))
+            x_px, r_px = pinhole_pixels(forward, left, focal_px=self.focal_px,
+                                        radius_mm=radius, image_width=self.image_width)
+            if self._fits(x_px, r_px):
+                out.append((w.colour, forward, left, x_px, r_px))
         return out
 
 
