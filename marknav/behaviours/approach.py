@@ -17,11 +17,12 @@ With ``navigation.approach_aim: side`` the aim moves from the mark's centre to t
 left for a mark passed on its left). The robot then heads for where it will pass instead of at
 the mark, which keeps it clear of a mark it just passed when the route turns back past it.
 
-Marks already passed are obstacles on the way to the next: when the heading toward the aim would
-bring the robot's centre within ``clearance_mm + bypass_margin_mm`` of a passed mark ahead of it
-(its position as recorded when it was passed), the heading turns to the tangent of that circle on
-the aim's side (:func:`keep_clear`). A route that doubles back past a mark (a figure eight) then
-skirts it instead of grazing it.
+Other marks are obstacles on the way to the target: when the heading toward the aim would bring
+the robot's centre within ``clearance_mm + bypass_margin_mm`` of a mark ahead of it and nearer
+than the target — one already passed (as recorded when it was passed) or one remembered from the
+camera (``/marknav/known``) — the heading turns to the tangent of that circle on the aim's side
+(:func:`keep_clear`). A route that doubles back past a mark (a figure eight) then skirts it
+instead of grazing it, and a far target is not approached through a nearer mark.
 
 Between frames (the target's sighting is older than the latest frame) the mark's world estimate
 and the odometry pose stand in for the pixels. SUCCESS when the estimated distance along the
@@ -125,7 +126,7 @@ class ApproachWhileCentring(DrivingBehaviour):
     Setup: ``robot``, ``clock``, ``mission`` (wheel base, speed limit, focal length).
     """
 
-    READS: ClassVar[tuple[str, ...]] = (keys.TARGET, keys.FRAME, keys.PASSED)
+    READS: ClassVar[tuple[str, ...]] = (keys.TARGET, keys.FRAME, keys.PASSED, keys.KNOWN)
 
     def __init__(
         self,
@@ -208,7 +209,7 @@ class ApproachWhileCentring(DrivingBehaviour):
             sigma = 1.0 if target.side == "left" else -1.0
             angle += sigma * math.atan2(s["aim_offset_mm"], forward)
         if s["keep_mm"] > 0.0:
-            angle = self._around_passed(angle, target, forward)
+            angle = self._around_others(angle, target, forward)
         cmd = centring_command(
             angle_rad=angle, forward_mm=forward, speed_mm_s=s["speed_mm_s"],
             bypass_distance_mm=s["bypass_distance_mm"], steer_gain=self.steer_gain,
@@ -223,16 +224,16 @@ class ApproachWhileCentring(DrivingBehaviour):
                                  f"{cmd.linear:.0f} mm/s")
         return Status.RUNNING
 
-    def _around_passed(self, angle: float, target: keys.Target, forward: float) -> float:
-        """Turn ``angle`` around the marks passed so far (not the target itself)."""
+    def _around_others(self, angle: float, target: keys.Target, forward: float) -> float:
+        """Turn ``angle`` around the marks passed or remembered (not the target itself)."""
         passed: tuple[keys.PassedWaypoint, ...] = self.read(keys.PASSED, ()) or ()
-        if not passed:
+        known: tuple[keys.KnownMark, ...] = self.read(keys.KNOWN, ()) or ()
+        if not passed and not known:
             return angle
         assert target.world is not None
+        tx, ty = target.world
+        points = [(p.mark_x, p.mark_y) for p in passed] + [k.world for k in known]
         pose = self.robot.pose()
-        obstacles = []
-        for p in passed:
-            if math.hypot(p.mark_x - target.world[0], p.mark_y - target.world[1]) < SAME_MARK_MM:
-                continue
-            obstacles.append(to_robot_frame(pose, (p.mark_x, p.mark_y)))
+        obstacles = [to_robot_frame(pose, xy) for xy in points
+                     if math.hypot(xy[0] - tx, xy[1] - ty) >= SAME_MARK_MM]
         return keep_clear(angle, obstacles, self.settings["keep_mm"], reach_mm=forward)

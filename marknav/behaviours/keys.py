@@ -39,6 +39,7 @@ __all__ = [
     "ALL_KEYS",
     "DRIVER",
     "FRAME",
+    "KNOWN",
     "LAST_SEEN",
     "MARKS",
     "NAMESPACE",
@@ -48,6 +49,7 @@ __all__ = [
     "TARGET",
     "Driver",
     "FrameInfo",
+    "KnownMark",
     "PassedWaypoint",
     "PlanRecord",
     "Recovery",
@@ -71,9 +73,11 @@ PASSED = f"{NAMESPACE}/passed"
 PLANS = f"{NAMESPACE}/plans"
 DRIVER = f"{NAMESPACE}/driver"
 RECOVERY = f"{NAMESPACE}/recovery"
+KNOWN = f"{NAMESPACE}/known"
 
 #: Every key above, for clients that read them all and for :func:`reset`.
-ALL_KEYS: tuple[str, ...] = (FRAME, MARKS, LAST_SEEN, TARGET, PASSED, PLANS, DRIVER, RECOVERY)
+ALL_KEYS: tuple[str, ...] = (FRAME, MARKS, LAST_SEEN, TARGET, PASSED, PLANS, DRIVER, RECOVERY,
+                             KNOWN)
 
 
 @dataclass(frozen=True)
@@ -158,6 +162,9 @@ class Target:
     world_x: float | None = None
     world_y: float | None = None
     locked: bool = False
+    #: Chosen from the mark memory (seen before, out of view now): followed by world position
+    #: until it is seen again, not swapped for a farther mark of its colour that is in view.
+    remembered: bool = False
 
     @property
     def world(self) -> tuple[float, float] | None:
@@ -170,6 +177,22 @@ class Target:
     def label(self) -> str:
         """``red #2`` (1-based waypoint number), for feedback messages."""
         return f"{self.colour} #{self.waypoint + 1}" if self.waypoint >= 0 else self.colour
+
+
+@dataclass(frozen=True)
+class KnownMark:
+    """A mark remembered from earlier frames (``/marknav/known``): its colour, its latest world
+    position estimate (odometry frame), when it was last seen and from how far."""
+
+    colour: str
+    world_x: float
+    world_y: float
+    t: float
+    range_mm: float
+
+    @property
+    def world(self) -> tuple[float, float]:
+        return (self.world_x, self.world_y)
 
 
 @dataclass(frozen=True)

@@ -30,7 +30,13 @@ from py_trees.common import Status
 
 from marknav.behaviours import keys
 from marknav.behaviours.base import MarknavBehaviour, SetupError, check_positive
-from marknav.behaviours.target import associate, describe, excluded_passes, with_sighting
+from marknav.behaviours.target import (
+    associate,
+    describe,
+    excluded_passes,
+    remember,
+    with_sighting,
+)
 from marknav.drivers.robot import WheelCalibratable
 from marknav.planning.kinematics import Pose, to_world_frame
 from marknav.planning.wheel_ratio import WheelRatioCalibrator, WheelRatioStep
@@ -74,7 +80,8 @@ class PerceptionBase(MarknavBehaviour):
     """
 
     READS: ClassVar[tuple[str, ...]] = (keys.PASSED,)
-    WRITES: ClassVar[tuple[str, ...]] = (keys.FRAME, keys.MARKS, keys.LAST_SEEN, keys.TARGET)
+    WRITES: ClassVar[tuple[str, ...]] = (keys.FRAME, keys.MARKS, keys.LAST_SEEN, keys.TARGET,
+                                         keys.KNOWN)
     ABORTS: ClassVar[bool] = True
 
     def __init__(self, name: str = "Perception", *,
@@ -113,6 +120,8 @@ class PerceptionBase(MarknavBehaviour):
         for mark in sorted(obs.marks, key=lambda m: -m.range_mm):
             last_seen[mark.colour] = mark  # the nearest of each colour is written last
         self.write(keys.LAST_SEEN, last_seen)
+        if obs.marks:
+            self.write(keys.KNOWN, remember(self.read(keys.KNOWN, ()), obs.marks))
         target = self.target()
         sighting = None
         if target is not None:

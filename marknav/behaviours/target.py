@@ -8,7 +8,12 @@ route colour's nearest visible mark, with two refinements:
   to the first red when it comes into view;
 - once the bypass has started the target is *locked*: later sightings are associated by world
   position (nearest to the last estimate, within the gate), never swapped for another mark of the
-  same colour that happens to be nearer.
+  same colour that happens to be nearer;
+- marks seen within :data:`MEMORY_RANGE_MM` are remembered (``/marknav/known``, :func:`remember`).
+  When the nearest unpassed mark of the route colour is a remembered one out of view — a bypass
+  turned the robot away from it — and it is clearly nearer than any in view, it is the target
+  (*remembered*: followed by world position until seen again, so the search turns toward it),
+  not a farther mark of that colour down the course.
 
 :func:`associate` is the pure rule; Perception applies it every frame to refresh
 ``/marknav/target``. The behaviours here: :class:`SelectTarget` (sets the target of a waypoint),
@@ -35,6 +40,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "GATE_MIN_MM",
+    "MEMORY_RANGE_MM",
     "SelectTarget",
     "TargetLocked",
     "TargetSeen",
@@ -44,6 +50,8 @@ __all__ = [
     "gate_mm",
     "is_passed_mark",
     "nearest_of_colour",
+    "remember",
+    "remembered_target",
     "waypoint_id_for",
 ]
 
@@ -51,6 +59,10 @@ __all__ = [
 GATE_MIN_MM = 250.0
 #: The gate grows with range, as the range error does (δd ≈ d²·δr / (f·R)).
 GATE_RANGE_FRACTION = 0.2
+#: Marks seen this near are remembered (farther estimates are too coarse to steer by).
+MEMORY_RANGE_MM = 4000.0
+#: A remembered mark is preferred to one in view only when nearer by at least this (mm).
+MEMORY_PREFERENCE_MM = 500.0
 
 
 def gate_mm(range_mm: float) -> float:
@@ -71,6 +83,55 @@ def is_passed_mark(mark: keys.SeenMark, passed: Iterable[keys.PassedWaypoint]) -
         and math.hypot(mark.world_x - p.mark_x, mark.world_y - p.mark_y) <= gate
         for p in passed
     )
+
+
+def _near_passed(colour: str, xy: tuple[float, float], range_mm: float,
+                 passed: Iterable[keys.PassedWaypoint]) -> bool:
+    gate = gate_mm(range_mm)
+    return any(p.colour == colour and math.hypot(xy[0] - p.mark_x, xy[1] - p.mark_y) <= gate
+               for p in passed)
+
+
+def remember(known: Sequence[keys.KnownMark], marks: Sequence[keys.SeenMark],
+             *, max_range_mm: float = MEMORY_RANGE_MM) -> tuple[keys.KnownMark, ...]:
+    """``known`` updated with one frame's ``marks``: a sighting within ``max_range_mm`` updates
+    the remembered mark of its colour within the gate (latest position and time) or adds one."""
+    out = list(known)
+    for m in marks:
+        if m.range_mm > max_range_mm:
+            continue
+        gate = gate_mm(m.range_mm)
+        best, best_d = -1, math.inf
+        for i, k in enumerate(out):
+            if k.colour != m.colour:
+                continue
+            d = math.hypot(k.world_x - m.world_x, k.world_y - m.world_y)
+            if d <= gate and d < best_d:
+                best, best_d = i, d
+        entry = keys.KnownMark(m.colour, m.world_x, m.world_y, m.t, m.range_mm)
+        if best >= 0:
+            out[best] = entry
+        else:
+            out.append(entry)
+    return tuple(out)
+
+
+def remembered_target(known: Sequence[keys.KnownMark], colour: str,
+                      passed: Sequence[keys.PassedWaypoint], pose_xy: tuple[float, float],
+                      marks: Sequence[keys.SeenMark]) -> keys.KnownMark | None:
+    """The nearest remembered mark of ``colour`` that is neither passed nor in view now."""
+    best: keys.KnownMark | None = None
+    best_d = math.inf
+    for k in known:
+        if k.colour != colour or _near_passed(colour, k.world, k.range_mm, passed):
+            continue
+        if any(m.colour == colour and math.hypot(m.world_x - k.world_x, m.world_y - k.world_y)
+               <= gate_mm(m.range_mm) for m in marks):
+            continue  # in view: the sighting speaks for it
+        d = math.hypot(k.world_x - pose_xy[0], k.world_y - pose_xy[1])
+        if d < best_d:
+            best, best_d = k, d
+    return best
 
 
 def excluded_passes(
@@ -105,7 +166,7 @@ def associate(
     the mark of that colour nearest to the target's world estimate, if within the gate.
     """
     done = tuple(passed)
-    if not target.locked or target.world is None:
+    if not (target.locked or target.remembered) or target.world is None:
         return nearest_of_colour(marks, target.colour, done)
     tx, ty = target.world
     best: keys.SeenMark | None = None
@@ -121,7 +182,8 @@ def associate(
 
 def with_sighting(target: keys.Target, sighting: keys.SeenMark) -> keys.Target:
     """``target`` updated with a new sighting of its mark (and its world position)."""
-    return replace(target, sighting=sighting, world_x=sighting.world_x, world_y=sighting.world_y)
+    return replace(target, sighting=sighting, world_x=sighting.world_x, world_y=sighting.world_y,
+                   remembered=False)
 
 
 def describe(mark: keys.SeenMark | None) -> str:
@@ -148,7 +210,7 @@ class SelectTarget(MarknavBehaviour):
             ``waypoint`` and ``colour``.
     """
 
-    READS: ClassVar[tuple[str, ...]] = (keys.MARKS, keys.PASSED)
+    READS: ClassVar[tuple[str, ...]] = (keys.MARKS, keys.PASSED, keys.KNOWN)
     WRITES: ClassVar[tuple[str, ...]] = (keys.TARGET,)
 
     def __init__(
@@ -191,9 +253,27 @@ class SelectTarget(MarknavBehaviour):
         seen = nearest_of_colour(marks, self.colour, passed)
         target = keys.Target(waypoint=self.waypoint, waypoint_id=self.waypoint_id,
                              colour=self.colour, side=self.side)
+        known: tuple[keys.KnownMark, ...] = self.read(keys.KNOWN, ())
+        mine = current is not None and current.waypoint_id == self.waypoint_id
+        memory = None
+        if known and not (seen is None and mine):
+            pose = self.robot.pose()
+            memory = remembered_target(known, self.colour, passed, (pose.x, pose.y), marks)
+            if memory is not None and seen is not None and \
+                    math.hypot(memory.world_x - pose.x, memory.world_y - pose.y) \
+                    > seen.range_mm - MEMORY_PREFERENCE_MM:
+                memory = None  # the one in view is as near: take it
+        if memory is not None:
+            target = replace(target, world_x=memory.world_x, world_y=memory.world_y,
+                             remembered=True)
+            self.write(keys.TARGET, target)
+            self.feedback_message = (f"{target.label}, pass on its {self.side}: out of view, "
+                                     f"remembered from t={memory.t:.1f} s")
+            return Status.SUCCESS
         if seen is not None:
             target = with_sighting(target, seen)
-        elif current is not None and current.waypoint_id == self.waypoint_id:
+        elif mine:
+            assert current is not None
             target = current  # out of view now: keep what was seen of it so far
         self.write(keys.TARGET, target)
         self.feedback_message = f"{target.label}, pass on its {self.side}: {describe(seen)}"
