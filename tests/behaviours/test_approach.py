@@ -174,3 +174,15 @@ def test_approach_skirts_marks_already_passed(rig, passed_x, passed_y, turns):
     assert cmd.left > cmd.right
     omega = max(-math.radians(60.0), min(math.radians(60.0), 2.0 * angle))
     assert (cmd.right - cmd.left) / 235.0 == pytest.approx(omega, abs=0.01)
+
+
+def test_approach_skirts_a_remembered_mark_nearer_than_the_target(rig):
+    """Long-course seed 3: heading for a far mark, the robot drove into a nearer one of another
+    colour. Marks the camera has seen are obstacles too."""
+    rig.perception.place("red", x_mm=0, y_mm=3000)
+    blue = keys.KnownMark("blue", -100.0, 1200.0, t=0.0, range_mm=1204.0)
+    py_trees.blackboard.Blackboard.set(keys.KNOWN, (blue,))
+    tree, _ = approach_tree(rig)
+    tree.tick()
+    cmd = first_command(rig)
+    assert cmd.left > cmd.right  # turning right, around the blue mark on its left

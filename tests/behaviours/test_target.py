@@ -14,6 +14,8 @@ from marknav.behaviours.target import (
     WaypointPassed,
     associate,
     nearest_of_colour,
+    remember,
+    remembered_target,
 )
 from marknav.testing import RobotMark
 
@@ -121,3 +123,61 @@ def test_revisit_marks_excludes_only_the_mark_passed_last(mission_factory):
     assert excluded_passes(history, figure_eight) == history[1:]
     assert excluded_passes((), figure_eight) == ()
     assert excluded_passes(history, None) == history
+
+
+# -- the mark memory -------------------------------------------------------------------------
+
+
+def test_remember_updates_within_the_gate_adds_new_marks_and_ignores_far_ones():
+    known = remember((), [seen("red", 0, 1500, t=0.0), seen("green", 500, 3000, t=0.0),
+                          seen("blue", 0, 4500, t=0.0)])  # blue: beyond 4 m, too coarse
+    assert [(k.colour, k.world) for k in known] == [("red", (0, 1500)), ("green", (500, 3000))]
+    known = remember(known, [seen("red", 80, 1450, t=0.5), seen("red", -900, 1500, t=0.5)])
+    assert [(k.colour, k.world, k.t) for k in known] == [
+        ("red", (80, 1450), 0.5),        # the same red (80 mm off, gate 300 mm): updated
+        ("green", (500, 3000), 0.0),
+        ("red", (-900, 1500), 0.5)]      # another red
+
+
+def test_remembered_target_is_the_nearest_unpassed_mark_out_of_view():
+    known = remember((), [seen("green", 900, 1800), seen("green", 300, 900)])
+    assert len(known) == 2
+    passed = (keys.PassedWaypoint(waypoint=0, waypoint_id="w0", colour="green", side="right",
+                                  t=0.0, mark_x=300.0, mark_y=900.0),)  # the nearer one
+    in_view = [seen("green", 0, 9000)]
+    got = remembered_target(known, "green", passed, (0.0, 0.0), in_view)
+    assert got is not None and got.world == (900, 1800)
+    # in view now: the sighting speaks for it
+    assert remembered_target(known, "green", passed, (0.0, 0.0), [seen("green", 950, 1800)]) \
+        is None
+    assert remembered_target(known, "green", (), (0.0, 0.0), in_view) == known[1]  # nearest
+    assert remembered_target(known, "red", (), (0.0, 0.0), in_view) is None
+
+
+def test_a_remembered_nearer_mark_beats_a_farther_one_in_view(rig):
+    """Long-course seed 3: a bypass left the robot facing away from the next green; a green far
+    down the course was in view. The target is the remembered one, followed by position."""
+    py_trees.blackboard.Blackboard.set(keys.KNOWN, remember((), [seen("green", 1500, 1500)]))
+    rig.perception.script = [[RobotMark("green", 8000.0, 300.0)]]  # far, straight ahead
+    select = SelectTarget(colour="green", waypoint=1)
+    root = py_trees.composites.Sequence("Root", memory=False,
+                                        children=[rig.perception, select])
+    tree = rig.tree(root)
+    tree.tick()
+    t = rig.bb(keys.TARGET)
+    assert t.remembered and t.sighting is None and t.world == (1500, 1500)
+    assert select.feedback_message == ("green #2, pass on its right: out of view, "
+                                       "remembered from t=0.0 s")
+    # Perception does not swap it for the far green: association is by position
+    assert associate([seen("green", -300, 8000)], t) is None
+    assert associate([seen("green", 1450, 1520)], t) is not None
+
+
+def test_a_mark_in_view_as_near_as_the_remembered_one_wins(rig):
+    py_trees.blackboard.Blackboard.set(keys.KNOWN, remember((), [seen("green", 1500, 1500)]))
+    rig.perception.script = [[RobotMark("green", 2000.0, 300.0)]]  # 2.02 m vs 2.12 m
+    root = py_trees.composites.Sequence("Root", memory=False, children=[
+        rig.perception, SelectTarget(colour="green", waypoint=1)])
+    rig.tree(root).tick()
+    t = rig.bb(keys.TARGET)
+    assert not t.remembered and t.sighting is not None and t.sighting.forward_mm == 2000.0
