@@ -39,6 +39,7 @@ from py_trees.common import Status
 
 from marknav.behaviours import keys
 from marknav.behaviours.base import DrivingBehaviour, SetupError, check_positive, pick
+from marknav.behaviours.target import MEMORY_MIN_SEEN
 from marknav.planning.kinematics import WheelSpeeds, scale_to_limit, to_robot_frame
 
 __all__ = ["THRESHOLD_SPEED_FRACTION", "ApproachWhileCentring", "centring_command", "keep_clear"]
@@ -232,7 +233,8 @@ class ApproachWhileCentring(DrivingBehaviour):
             return angle
         assert target.world is not None
         tx, ty = target.world
-        points = [(p.mark_x, p.mark_y) for p in passed] + [k.world for k in known]
+        points = [(p.mark_x, p.mark_y) for p in passed] + [
+            k.world for k in known if k.seen >= MEMORY_MIN_SEEN]
         pose = self.robot.pose()
         obstacles = [to_robot_frame(pose, xy) for xy in points
                      if math.hypot(xy[0] - tx, xy[1] - ty) >= SAME_MARK_MM]

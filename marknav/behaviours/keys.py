@@ -189,6 +189,9 @@ class KnownMark:
     world_y: float
     t: float
     range_mm: float
+    #: Frames that saw it, and frames since that should have (in view, near) but did not.
+    seen: int = 1
+    missed: int = 0
 
     @property
     def world(self) -> tuple[float, float]:

@@ -23,6 +23,7 @@ mission aborts.
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -120,8 +121,10 @@ class PerceptionBase(MarknavBehaviour):
         for mark in sorted(obs.marks, key=lambda m: -m.range_mm):
             last_seen[mark.colour] = mark  # the nearest of each colour is written last
         self.write(keys.LAST_SEEN, last_seen)
-        if obs.marks:
-            self.write(keys.KNOWN, remember(self.read(keys.KNOWN, ()), obs.marks))
+        known: tuple[keys.KnownMark, ...] = self.read(keys.KNOWN, ())
+        if obs.marks or known:
+            self.write(keys.KNOWN, remember(known, obs.marks, pose=self.robot.pose(),
+                                            half_fov_rad=self.half_fov_rad()))
         target = self.target()
         sighting = None
         if target is not None:
@@ -132,6 +135,11 @@ class PerceptionBase(MarknavBehaviour):
         seen = ", ".join(f"{m.colour} {m.range_mm / 1000.0:.2f} m" for m in obs.marks) or "no marks"
         focus = f"; target {target.label}: {describe(sighting)}" if target is not None else ""
         self.feedback_message = f"frame {obs.frame.index}: {seen}{focus}"
+
+    def half_fov_rad(self) -> float | None:
+        """Half the camera's horizontal field of view (from the mission), if known."""
+        m = self.mission
+        return None if m is None else math.radians(0.5 * m.camera.hfov_deg)
 
     def seen_mark(self, *, colour: str, forward_mm: float, left_mm: float, x_px: float,
                   radius_px: float, image_width: int, t: float,

@@ -34,6 +34,7 @@ from py_trees.common import Status
 
 from marknav.behaviours import keys
 from marknav.behaviours.base import MarknavBehaviour, SetupError, check_positive, pick
+from marknav.planning.kinematics import Pose, to_robot_frame
 
 if TYPE_CHECKING:
     from marknav.missions.schema import Mission
@@ -63,6 +64,10 @@ GATE_RANGE_FRACTION = 0.2
 MEMORY_RANGE_MM = 4000.0
 #: A remembered mark is preferred to one in view only when nearer by at least this (mm).
 MEMORY_PREFERENCE_MM = 500.0
+#: A remembered mark counts once seen in this many frames (one-frame false detections do not).
+MEMORY_MIN_SEEN = 3
+#: Forgotten after this many frames that should have seen it and did not.
+MEMORY_MAX_MISSES = 3
 
 
 def gate_mm(range_mm: float) -> float:
@@ -92,11 +97,17 @@ def _near_passed(colour: str, xy: tuple[float, float], range_mm: float,
                for p in passed)
 
 
-def remember(known: Sequence[keys.KnownMark], marks: Sequence[keys.SeenMark],
-             *, max_range_mm: float = MEMORY_RANGE_MM) -> tuple[keys.KnownMark, ...]:
+def remember(known: Sequence[keys.KnownMark], marks: Sequence[keys.SeenMark], *,
+             max_range_mm: float = MEMORY_RANGE_MM, pose: Pose | None = None,
+             half_fov_rad: float | None = None) -> tuple[keys.KnownMark, ...]:
     """``known`` updated with one frame's ``marks``: a sighting within ``max_range_mm`` updates
-    the remembered mark of its colour within the gate (latest position and time) or adds one."""
+    the remembered mark of its colour within the gate (latest position and time, one more
+    ``seen``) or adds one. With ``pose`` and ``half_fov_rad``, a remembered mark well inside the
+    view and near enough that this frame should have seen it, but did not, counts a ``missed``
+    frame; after :data:`MEMORY_MAX_MISSES` it is forgotten (a false detection, or a mark that
+    was moved)."""
     out = list(known)
+    matched: set[int] = set()
     for m in marks:
         if m.range_mm > max_range_mm:
             continue
@@ -108,12 +119,26 @@ def remember(known: Sequence[keys.KnownMark], marks: Sequence[keys.SeenMark],
             d = math.hypot(k.world_x - m.world_x, k.world_y - m.world_y)
             if d <= gate and d < best_d:
                 best, best_d = i, d
-        entry = keys.KnownMark(m.colour, m.world_x, m.world_y, m.t, m.range_mm)
         if best >= 0:
-            out[best] = entry
+            out[best] = keys.KnownMark(m.colour, m.world_x, m.world_y, m.t, m.range_mm,
+                                       seen=out[best].seen + 1, missed=0)
+            matched.add(best)
         else:
-            out.append(entry)
-    return tuple(out)
+            out.append(keys.KnownMark(m.colour, m.world_x, m.world_y, m.t, m.range_mm))
+            matched.add(len(out) - 1)
+    if pose is None or half_fov_rad is None:
+        return tuple(out)
+    kept = []
+    for i, k in enumerate(out):
+        if i not in matched:
+            forward, left = to_robot_frame(pose, k.world)
+            if 300.0 < forward < 0.75 * max_range_mm and \
+                    abs(math.atan2(left, forward)) < 0.75 * half_fov_rad:
+                k = replace(k, missed=k.missed + 1)
+                if k.missed >= MEMORY_MAX_MISSES:
+                    continue
+        kept.append(k)
+    return tuple(kept)
 
 
 def remembered_target(known: Sequence[keys.KnownMark], colour: str,
@@ -123,7 +148,8 @@ def remembered_target(known: Sequence[keys.KnownMark], colour: str,
     best: keys.KnownMark | None = None
     best_d = math.inf
     for k in known:
-        if k.colour != colour or _near_passed(colour, k.world, k.range_mm, passed):
+        if k.colour != colour or k.seen < MEMORY_MIN_SEEN or \
+                _near_passed(colour, k.world, k.range_mm, passed):
             continue
         if any(m.colour == colour and math.hypot(m.world_x - k.world_x, m.world_y - k.world_y)
                <= gate_mm(m.range_mm) for m in marks):

@@ -180,7 +180,7 @@ def test_approach_skirts_a_remembered_mark_nearer_than_the_target(rig):
     """Long-course seed 3: heading for a far mark, the robot drove into a nearer one of another
     colour. Marks the camera has seen are obstacles too."""
     rig.perception.place("red", x_mm=0, y_mm=3000)
-    blue = keys.KnownMark("blue", -100.0, 1200.0, t=0.0, range_mm=1204.0)
+    blue = keys.KnownMark("blue", -100.0, 1200.0, t=0.0, range_mm=1204.0, seen=3)
     py_trees.blackboard.Blackboard.set(keys.KNOWN, (blue,))
     tree, _ = approach_tree(rig)
     tree.tick()

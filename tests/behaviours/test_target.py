@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import py_trees
 import pytest
 from py_trees.common import Status
@@ -17,6 +19,7 @@ from marknav.behaviours.target import (
     remember,
     remembered_target,
 )
+from marknav.planning.kinematics import Pose
 from marknav.testing import RobotMark
 
 
@@ -133,15 +136,39 @@ def test_remember_updates_within_the_gate_adds_new_marks_and_ignores_far_ones():
                           seen("blue", 0, 4500, t=0.0)])  # blue: beyond 4 m, too coarse
     assert [(k.colour, k.world) for k in known] == [("red", (0, 1500)), ("green", (500, 3000))]
     known = remember(known, [seen("red", 80, 1450, t=0.5), seen("red", -900, 1500, t=0.5)])
-    assert [(k.colour, k.world, k.t) for k in known] == [
-        ("red", (80, 1450), 0.5),        # the same red (80 mm off, gate 300 mm): updated
-        ("green", (500, 3000), 0.0),
-        ("red", (-900, 1500), 0.5)]      # another red
+    assert [(k.colour, k.world, k.t, k.seen) for k in known] == [
+        ("red", (80, 1450), 0.5, 2),     # the same red (80 mm off, gate 300 mm): updated
+        ("green", (500, 3000), 0.0, 1),
+        ("red", (-900, 1500), 0.5, 1)]   # another red
+
+
+def test_a_remembered_mark_in_view_that_is_not_seen_is_forgotten():
+    """Long-course seed 0: a green mark read as blue for a moment became a remembered "blue"
+    where no blue stands; the robot searched for it in vain. Marks that should be in view but
+    are not seen for three frames are forgotten."""
+    origin = Pose(0.0, 0.0, math.pi / 2)  # facing +y, as seen() assumes
+    known = remember((), [seen("blue", 100, 2000)] * 3)
+    assert known[0].seen == 3
+    half_fov = math.radians(28.5)
+    for expected_missed in (1, 2):
+        known = remember(known, [seen("green", -250, 2000)], pose=origin, half_fov_rad=half_fov)
+        assert [(k.colour, k.missed) for k in known if k.colour == "blue"] == [
+            ("blue", expected_missed)]
+    known = remember(known, [], pose=origin, half_fov_rad=half_fov)
+    assert [k.colour for k in known] == ["green"]
+    # out of view (behind the robot): nothing to say about it
+    behind = Pose(0.0, 3000.0, math.pi / 2)
+    kept = remember(remember((), [seen("red", 0, 1500)]), [], pose=behind, half_fov_rad=half_fov)
+    assert kept[0].missed == 0
 
 
 def test_remembered_target_is_the_nearest_unpassed_mark_out_of_view():
     known = remember((), [seen("green", 900, 1800), seen("green", 300, 900)])
-    assert len(known) == 2
+    known = remember(remember(known, [seen("green", 900, 1800), seen("green", 300, 900)]),
+                     [seen("green", 900, 1800), seen("green", 300, 900)])
+    assert [k.seen for k in known] == [3, 3]
+    assert remembered_target(remember((), [seen("green", 900, 1800)]), "green", (), (0.0, 0.0),
+                             []) is None  # seen once: perhaps a false detection
     passed = (keys.PassedWaypoint(waypoint=0, waypoint_id="w0", colour="green", side="right",
                                   t=0.0, mark_x=300.0, mark_y=900.0),)  # the nearer one
     in_view = [seen("green", 0, 9000)]
@@ -157,7 +184,7 @@ def test_remembered_target_is_the_nearest_unpassed_mark_out_of_view():
 def test_a_remembered_nearer_mark_beats_a_farther_one_in_view(rig):
     """Long-course seed 3: a bypass left the robot facing away from the next green; a green far
     down the course was in view. The target is the remembered one, followed by position."""
-    py_trees.blackboard.Blackboard.set(keys.KNOWN, remember((), [seen("green", 1500, 1500)]))
+    py_trees.blackboard.Blackboard.set(keys.KNOWN, remember((), [seen("green", 1500, 1500)] * 3))
     rig.perception.script = [[RobotMark("green", 8000.0, 300.0)]]  # far, straight ahead
     select = SelectTarget(colour="green", waypoint=1)
     root = py_trees.composites.Sequence("Root", memory=False,
@@ -174,7 +201,7 @@ def test_a_remembered_nearer_mark_beats_a_farther_one_in_view(rig):
 
 
 def test_a_mark_in_view_as_near_as_the_remembered_one_wins(rig):
-    py_trees.blackboard.Blackboard.set(keys.KNOWN, remember((), [seen("green", 1500, 1500)]))
+    py_trees.blackboard.Blackboard.set(keys.KNOWN, remember((), [seen("green", 1500, 1500)] * 3))
     rig.perception.script = [[RobotMark("green", 2000.0, 300.0)]]  # 2.02 m vs 2.12 m
     root = py_trees.composites.Sequence("Root", memory=False, children=[
         rig.perception, SelectTarget(colour="green", waypoint=1)])
