@@ -68,6 +68,8 @@ MEMORY_PREFERENCE_MM = 500.0
 MEMORY_MIN_SEEN = 3
 #: Forgotten after this many frames that should have seen it and did not.
 MEMORY_MAX_MISSES = 3
+#: A remembered target is recognised within this many association gates of its position.
+REMEMBERED_GATE_FACTOR = 2.5
 
 
 def gate_mm(range_mm: float) -> float:
@@ -195,13 +197,16 @@ def associate(
     if not (target.locked or target.remembered) or target.world is None:
         return nearest_of_colour(marks, target.colour, done)
     tx, ty = target.world
+    # A remembered position was estimated from farther away (up to MEMORY_RANGE_MM) and odometry
+    # has drifted since: a wider gate.
+    widen = REMEMBERED_GATE_FACTOR if target.remembered and not target.locked else 1.0
     best: keys.SeenMark | None = None
     best_d = math.inf
     for m in marks:
-        if m.colour != target.colour:
+        if m.colour != target.colour or (widen > 1.0 and is_passed_mark(m, done)):
             continue
         d = math.hypot(m.world_x - tx, m.world_y - ty)
-        if d <= gate_mm(m.range_mm) and d < best_d:
+        if d <= widen * gate_mm(m.range_mm) and d < best_d:
             best, best_d = m, d
     return best
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import py_trees
 import pytest
@@ -208,3 +209,13 @@ def test_a_mark_in_view_as_near_as_the_remembered_one_wins(rig):
     rig.tree(root).tick()
     t = rig.bb(keys.TARGET)
     assert not t.remembered and t.sighting is not None and t.sighting.forward_mm == 2000.0
+
+
+def test_a_remembered_target_is_recognised_within_a_wider_gate():
+    """Long-course seed 4: yellow remembered from 3 m was 470 mm off its true place; seen again
+    from 1.9 m (gate 380 mm) it was not recognised and the search turned in vain."""
+    t = target(colour="yellow", remembered=True, world_x=0.0, world_y=2370.0)
+    near = seen("yellow", 0, 1900)
+    assert associate([near], replace(t, remembered=False)) is not None  # unlocked: nearest
+    assert associate([near], t) is near                                # 470 mm ≤ 2.5 × 380 mm
+    assert associate([near], replace(t, locked=True, remembered=False)) is None  # locked: strict
