@@ -233,9 +233,11 @@ class ApproachWhileCentring(DrivingBehaviour):
             return angle
         assert target.world is not None
         tx, ty = target.world
+        pose = self.robot.pose()
+        reach2 = forward * forward
         points = [(p.mark_x, p.mark_y) for p in passed] + [
             k.world for k in known if k.seen >= MEMORY_MIN_SEEN]
-        pose = self.robot.pose()
         obstacles = [to_robot_frame(pose, xy) for xy in points
-                     if math.hypot(xy[0] - tx, xy[1] - ty) >= SAME_MARK_MM]
+                     if (xy[0] - pose.x) ** 2 + (xy[1] - pose.y) ** 2 <= reach2
+                     and math.hypot(xy[0] - tx, xy[1] - ty) >= SAME_MARK_MM]
         return keep_clear(angle, obstacles, self.settings["keep_mm"], reach_mm=forward)

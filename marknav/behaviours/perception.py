@@ -53,6 +53,9 @@ __all__ = ["DEFAULT_CAMERA_TIMEOUT_S", "Observation", "Perception", "PerceptionB
 
 log = logging.getLogger(__name__)
 
+#: The feedback message names this many marks (the nearest), then "+N more".
+FEEDBACK_MARKS = 3
+
 #: No frame for this long (mission-clock seconds) means the camera is lost.
 DEFAULT_CAMERA_TIMEOUT_S = 1.0
 
@@ -91,6 +94,7 @@ class PerceptionBase(MarknavBehaviour):
         check_positive(camera_timeout_s, "camera_timeout_s")
         self.camera_timeout_s = float(camera_timeout_s)
         self._last_frame_t: float | None = None  # mission time of the last frame (or first wait)
+        self._half_fov: tuple[Mission, float] | None = None
         self.frames = 0
 
     def observe(self) -> Observation | None:  # pragma: no cover - abstract
@@ -132,14 +136,21 @@ class PerceptionBase(MarknavBehaviour):
             sighting = associate(obs.marks, target, passed)
             if sighting is not None:
                 self.write(keys.TARGET, with_sighting(target, sighting))
-        seen = ", ".join(f"{m.colour} {m.range_mm / 1000.0:.2f} m" for m in obs.marks) or "no marks"
+        shown = obs.marks[:FEEDBACK_MARKS]  # nearest first (the detector's and the fake's order)
+        seen = ", ".join(f"{m.colour} {m.range_mm / 1000.0:.2f} m" for m in shown) or "no marks"
+        if len(obs.marks) > len(shown):
+            seen += f" (+{len(obs.marks) - len(shown)} more)"
         focus = f"; target {target.label}: {describe(sighting)}" if target is not None else ""
         self.feedback_message = f"frame {obs.frame.index}: {seen}{focus}"
 
     def half_fov_rad(self) -> float | None:
         """Half the camera's horizontal field of view (from the mission), if known."""
         m = self.mission
-        return None if m is None else math.radians(0.5 * m.camera.hfov_deg)
+        if m is None:
+            return None
+        if self._half_fov is None or self._half_fov[0] is not m:
+            self._half_fov = (m, math.radians(0.5 * m.camera.hfov_deg))
+        return self._half_fov[1]
 
     def seen_mark(self, *, colour: str, forward_mm: float, left_mm: float, x_px: float,
                   radius_px: float, image_width: int, t: float,

@@ -34,7 +34,7 @@ from py_trees.common import Status
 
 from marknav.behaviours import keys
 from marknav.behaviours.base import MarknavBehaviour, SetupError, check_positive, pick
-from marknav.planning.kinematics import Pose, to_robot_frame
+from marknav.planning.kinematics import Pose
 
 if TYPE_CHECKING:
     from marknav.missions.schema import Mission
@@ -131,11 +131,14 @@ def remember(known: Sequence[keys.KnownMark], marks: Sequence[keys.SeenMark], *,
     if pose is None or half_fov_rad is None:
         return tuple(out)
     kept = []
+    near = 0.75 * max_range_mm
+    c, s = math.cos(pose.theta), math.sin(pose.theta)
+    tan_half = math.tan(0.75 * half_fov_rad)
     for i, k in enumerate(out):
         if i not in matched:
-            forward, left = to_robot_frame(pose, k.world)
-            if 300.0 < forward < 0.75 * max_range_mm and \
-                    abs(math.atan2(left, forward)) < 0.75 * half_fov_rad:
+            dx, dy = k.world_x - pose.x, k.world_y - pose.y
+            forward = c * dx + s * dy
+            if 300.0 < forward < near and abs(c * dy - s * dx) < forward * tan_half:
                 k = replace(k, missed=k.missed + 1)
                 if k.missed >= MEMORY_MAX_MISSES:
                     continue
