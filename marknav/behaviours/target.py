@@ -195,6 +195,8 @@ def associate(
 
     Unlocked: the nearest not-yet-passed mark of the target's colour. Locked (bypass started):
     the mark of that colour nearest to the target's world estimate, if within the gate.
+    Remembered (chosen from the memory, out of view): the same by position, within
+    :data:`REMEMBERED_GATE_FACTOR` gates, passed marks excluded.
     """
     done = tuple(passed)
     if not (target.locked or target.remembered) or target.world is None:
