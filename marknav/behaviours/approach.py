@@ -44,7 +44,7 @@ from marknav.planning.kinematics import WheelSpeeds, scale_to_limit, to_robot_fr
 
 __all__ = ["THRESHOLD_SPEED_FRACTION", "ApproachWhileCentring", "centring_command", "keep_clear"]
 
-#: A passed mark this close to the target's estimate is the target itself (a revisited mark).
+#: A passed or remembered mark this close to the target's estimate is the target itself.
 SAME_MARK_MM = 400.0
 
 #: Speed at the bypass threshold as a fraction of the approach speed; the bypass cruises at the

@@ -62,10 +62,12 @@ DEFAULT_CAMERA_TIMEOUT_S = 1.0
 
 @dataclass(frozen=True)
 class Observation:
-    """One processed frame: its description and the marks in it."""
+    """One processed frame: its description, the marks in it, and the odometry pose they were
+    placed with (``None``: ask the robot)."""
 
     frame: keys.FrameInfo
     marks: tuple[keys.SeenMark, ...]
+    pose: Pose | None = None
 
 
 def range_model_of(mission: Mission) -> RangeModel:
@@ -127,7 +129,8 @@ class PerceptionBase(MarknavBehaviour):
         self.write(keys.LAST_SEEN, last_seen)
         known: tuple[keys.KnownMark, ...] = self.read(keys.KNOWN, ())
         if obs.marks or known:
-            self.write(keys.KNOWN, remember(known, obs.marks, pose=self.robot.pose(),
+            pose = obs.pose if obs.pose is not None else self.robot.pose()
+            self.write(keys.KNOWN, remember(known, obs.marks, pose=pose,
                                             half_fov_rad=self.half_fov_rad()))
         target = self.target()
         sighting = None
@@ -229,16 +232,18 @@ class Perception(PerceptionBase):
         t = self.now()
         found: list[Mark] = list(self._detector.detect(frame.image))
         robot = self.robot
-        if self._calibrator is not None and isinstance(robot, WheelCalibratable):
-            pose, sensitivity = robot.odometry_snapshot()
-            marks = tuple(self._to_seen(m, width, t, pose) for m in found)
-            self._calibrate(robot, pose, sensitivity, marks)
+        calibrated = (robot if self._calibrator is not None
+                      and isinstance(robot, WheelCalibratable) else None)
+        if calibrated is not None:
+            pose, sensitivity = calibrated.odometry_snapshot()
         else:
-            pose = robot.pose()
-            marks = tuple(self._to_seen(m, width, t, pose) for m in found)
+            pose, sensitivity = robot.pose(), None
+        marks = tuple(self._to_seen(m, width, t, pose) for m in found)
+        if calibrated is not None and sensitivity is not None:
+            self._calibrate(calibrated, pose, sensitivity, marks)
         info = keys.FrameInfo(index=frame.index, t=t, width=width, height=height,
                               marks=len(marks))
-        return Observation(frame=info, marks=marks)
+        return Observation(frame=info, marks=marks, pose=pose)
 
     def _calibrate(self, robot: WheelCalibratable, pose: Pose,
                    sensitivity: tuple[float, float, float],

@@ -352,16 +352,19 @@ class CreateDriver:
         """Calibrate odometry: the right wheel's travel counts ``factor`` times more from now on
         (see :mod:`marknav.planning.wheel_ratio`)."""
         with self._state_lock:
-            self.odometry.scale_right_wheel(factor)
-            if self._reading is not None:
-                self._reading = replace(self._reading, sensitivity=(0.0, 0.0, 0.0))
+            self.odometry.scale_right_wheel(factor)  # re-anchors
+            self._reanchored()
 
     def anchor_odometry(self) -> None:
         """Restart the odometry's sensitivity to the wheel scale from zero at the current pose."""
         with self._state_lock:
             self.odometry.anchor()
-            if self._reading is not None:
-                self._reading = replace(self._reading, sensitivity=(0.0, 0.0, 0.0))
+            self._reanchored()
+
+    def _reanchored(self) -> None:
+        """The latest reading's sensitivity after a re-anchor (call with the state lock)."""
+        if self._reading is not None:
+            self._reading = replace(self._reading, sensitivity=(0.0, 0.0, 0.0))
 
     @property
     def right_wheel_scale(self) -> float:

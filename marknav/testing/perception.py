@@ -166,7 +166,7 @@ class FakePerception(PerceptionBase):
         marks.sort(key=lambda m: m.range_mm)
         info = keys.FrameInfo(index=tick, t=t, width=self.image_width,
                               height=self.image_height, marks=len(marks))
-        return Observation(frame=info, marks=tuple(marks))
+        return Observation(frame=info, marks=tuple(marks), pose=odometry)
 
     def _in_view(self, pose: Pose) -> list[tuple[str, float, float, float, float]]:
         """``(colour, forward, left, x_px, radius_px)`` of the world marks in view from
