@@ -61,6 +61,7 @@ __all__ = [
     "RADIUS_SPIN_COUNTER_CLOCKWISE",
     "RADIUS_STRAIGHT",
     "RADIUS_STRAIGHT_ALT",
+    "RADIUS_STRAIGHT_SIGNED",
     "STREAM_HEADER",
     "STREAM_PERIOD_S",
     "BumpsAndWheelDrops",
@@ -165,6 +166,9 @@ MAX_PWM = 255
 #: Drive radius special cases (spec: "Straight = 32768 or 32767 = 0x8000 or 0x7FFF").
 RADIUS_STRAIGHT = 0x8000
 RADIUS_STRAIGHT_ALT = 0x7FFF
+#: 0x8000 read as a signed 16-bit number, as packet 40 (Requested Radius) reports "straight":
+#: a radius read back from the robot and sent again must drive straight too, not a 2 m arc.
+RADIUS_STRAIGHT_SIGNED = -0x8000
 RADIUS_SPIN_CLOCKWISE = -1
 RADIUS_SPIN_COUNTER_CLOCKWISE = 1
 #: Baud rate (bit/s) → baud code of the Baud command (129).
@@ -271,13 +275,14 @@ def drive(*, velocity: float, radius: int) -> bytes:
 
     ``velocity`` (mm/s, negative = backward) is clamped to ±500. ``radius`` (mm, positive = turn
     left) is clamped to ±2000 unless it is a special case, sent as is: :data:`RADIUS_STRAIGHT`
-    (0x8000, sent ``128 0``), :data:`RADIUS_STRAIGHT_ALT` (0x7FFF), :data:`RADIUS_SPIN_CLOCKWISE`
+    (0x8000, sent ``128 0``; its signed reading −32768, :data:`RADIUS_STRAIGHT_SIGNED`, is the
+    same), :data:`RADIUS_STRAIGHT_ALT` (0x7FFF), :data:`RADIUS_SPIN_CLOCKWISE`
     (−1) or :data:`RADIUS_SPIN_COUNTER_CLOCKWISE` (1). A radius of 0 raises ValueError.
     """
     v = _clamp(_finite("velocity", velocity), MAX_VELOCITY_MM_S)
     r_in = _finite("radius", radius)
-    if r_in in (RADIUS_STRAIGHT, RADIUS_STRAIGHT_ALT):
-        r_bytes = int(r_in).to_bytes(2, "big")
+    if r_in in (RADIUS_STRAIGHT, RADIUS_STRAIGHT_ALT, RADIUS_STRAIGHT_SIGNED):
+        r_bytes = (int(r_in) & 0xFFFF).to_bytes(2, "big")
     elif round(r_in) == 0:
         raise ValueError("radius 0 is undefined: use RADIUS_STRAIGHT or turn_in_place()")
     else:

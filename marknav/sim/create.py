@@ -3,7 +3,8 @@
 Bytes from the host go in with :meth:`SimulatedCreate.write`; bytes the robot sends come out of
 :meth:`SimulatedCreate.read`. In between, the robot behaves as the OI specifications describe:
 
-- OI modes (spec "Open Interface Modes"): Off until Start (128); Start → Passive; Safe (131,
+- OI modes (spec "Open Interface Modes"): Off until Start (128) — Reset (7, Create 2) is
+  answered in Off mode too ("always available"); Start → Passive; Safe (131,
   also Control 130) and Full (132). Drive, LEDs and Play are ignored outside Safe/Full; in Safe
   mode a wheel drop, or a cliff while driving forward (or spinning / backing on a radius under
   one robot radius), stops the wheels and drops to Passive. Bumps stop nothing.
@@ -517,8 +518,9 @@ class SimulatedCreate:
     def _process_input(self) -> None:
         buf = self._in
         while buf:
-            if self._mode is OIMode.OFF and buf[0] != Opcode.START:
-                # an Off OI only listens for Start; everything else is lost
+            if self._mode is OIMode.OFF and buf[0] not in self._off_mode_opcodes:
+                # an Off OI only listens for Start (and Reset, which the Create 2 spec says is
+                # always available); everything else is lost
                 del buf[:1]
                 continue
             try:
@@ -533,6 +535,12 @@ class SimulatedCreate:
             del buf[:n]
             accepted = self._execute(cmd[0], cmd[1:])
             self.commands.append(CommandRecord(self._time, cmd[0], cmd[1:], accepted))
+
+    @property
+    def _off_mode_opcodes(self) -> tuple[int, ...]:
+        if self.model is Model.CREATE2:
+            return (Opcode.START, Opcode.RESET)
+        return (Opcode.START,)  # the Create 1 has no Reset
 
     def _execute(self, op: int, data: bytes) -> bool:
         mode = self._mode

@@ -237,3 +237,10 @@ def test_decode_rejects_wrong_lengths_and_unknown_ids() -> None:
 def test_encode_saturates_like_the_robots_accumulators() -> None:
     assert encode_packet(C2, 19, {19: 40000}) == bytes([0x7F, 0xFF])
     assert encode_packet(C2, 19, {19: -40000}) == bytes([0x80, 0x00])
+
+
+def test_drive_radius_read_back_signed_is_straight() -> None:
+    # 0x8000 read as signed 16 bit (what packet 40 reports) is straight, not a -2000 mm arc.
+    assert list(oi.drive(velocity=100, radius=-32768)) == [137, 0, 100, 128, 0]
+    assert oi.drive(velocity=100, radius=oi.RADIUS_STRAIGHT_SIGNED) == oi.drive_straight(100)
+    assert list(oi.drive(velocity=100, radius=-32767)) == [137, 0, 100, 248, 48]  # clamped -2000

@@ -284,3 +284,34 @@ def test_stream_frames_decode_with_the_driver_parser() -> None:
     assert len(data) == 47 and sim.stream_frame_size() == 47
     values = decode_id_data_pairs(C1, data[2:-1])
     assert values[35] == OIMode.SAFE
+
+
+def test_reset_is_answered_in_off_mode_on_a_create2() -> None:
+    # Create 2 OI spec: Reset (7) is available in every mode, Off included.
+    sim = SimulatedCreate(model=C2)
+    assert sim.mode is OIMode.OFF
+    sim.write(bytes([7]))
+    banner = sim.read()
+    assert banner.startswith(b"\r\nmarknav simulated Roomba 600 (Create 2)\r\n")
+    assert sim.mode is OIMode.OFF and sim.commands[-1].opcode == 7
+    # everything else is still lost while Off
+    sim.write(bytes([142, 35]))
+    assert sim.read() == b""
+
+
+def test_create1_off_mode_ignores_opcode_7() -> None:
+    sim = SimulatedCreate(model=C1)  # the Create 1 has no Reset
+    sim.write(bytes([7]))
+    assert sim.read() == b"" and list(sim.commands) == []
+
+
+def test_drive_radius_minus_32768_drives_straight() -> None:
+    # Packet 40 reports the straight radius 0x8000 read as signed: -32768. Sent back, the
+    # driver's encoder must put 0x8000 on the wire and the robot must drive straight.
+    sim = started()
+    sim.write(oi.drive_straight(200))
+    assert poll(sim, 40) == {40: -32768}
+    wire = oi.drive(velocity=200, radius=-32768)
+    assert list(wire) == [137, 0, 200, 128, 0]
+    sim.write(wire)
+    assert (sim.wheel_speeds.left, sim.wheel_speeds.right) == (200.0, 200.0)

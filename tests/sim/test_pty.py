@@ -183,3 +183,16 @@ def test_sim_robot_bad_input_exits_2(capsys: pytest.CaptureFixture[str]) -> None
 
     assert main(["sim-robot", "--pty", "--right-scale", "0"]) == 2
     assert "--right-scale: must be in (0, 2], got 0.0" in capsys.readouterr().err
+
+
+def test_reset_answered_in_off_mode_over_the_pty(server: PtyServer) -> None:
+    # A freshly powered Create 2 is Off; Reset (7) is always available and prints the banner.
+    assert server.sim.mode is OIMode.OFF
+    with serial.Serial(server.path, 115200, timeout=0.2) as port:
+        port.write(bytes([7]))
+        data = b""
+        deadline = time.monotonic() + 2.0
+        while b"Create 2)\r\n" not in data and time.monotonic() < deadline:
+            data += port.read(256)
+    assert data.startswith(b"\r\nmarknav simulated Roomba 600 (Create 2)\r\n")
+    assert server.sim.mode is OIMode.OFF
