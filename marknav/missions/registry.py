@@ -37,6 +37,7 @@ import re
 import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 import py_trees
@@ -507,12 +508,33 @@ def build_tree(
             build_tree(c, registry, context, loc=(*loc, "children", i))
             for i, c in enumerate(node.children or [])
         ]
-        return spec.factory(name, children, node, context)
+        return _make(spec, loc, context, name, children, node, context)
     if spec.kind == "decorator":
         assert node.child is not None  # checked above
         child = build_tree(node.child, registry, context, loc=(*loc, "child"))
-        return spec.factory(name, child, params, context)
-    return spec.factory(name, params, context)
+        return _make(spec, loc, context, name, child, params, context)
+    return _make(spec, loc, context, name, params, context)
+
+
+def _make(spec: NodeType, loc: Loc, context: BuildContext, *args: Any) -> Behaviour:
+    """``spec.factory(*args)``; a factory's InputError or ValueError without a place in the file
+    (a plugin's own check, say) is located at the node."""
+    try:
+        node = spec.factory(*args)
+    except InputError as exc:
+        if exc.file is not None:
+            raise
+        message = exc.message.removeprefix(f"{spec.name}: ")
+        raise _located([_detail("node_build", f"{spec.name}: {message}", (), None)], loc,
+                       context) from None
+    except (ValueError, TypeError) as exc:
+        raise _located([_detail("node_build", f"{spec.name}: {exc}", (), None)], loc,
+                       context) from None
+    if not isinstance(node, Behaviour):
+        raise _located([_detail(
+            "node_build", f"{spec.name}: the factory returned {type(node).__name__}, not a "
+            "py_trees Behaviour", (), None)], loc, context)
+    return node
 
 
 def _located(problems: list[InitErrorDetails], loc: Loc, context: BuildContext) -> InputErrors:
@@ -704,12 +726,38 @@ _default_lock = threading.Lock()
 
 
 def default_registry() -> NodeRegistry:
-    """The process-wide registry: built-ins plus every module in :data:`BEHAVIOUR_MODULES`."""
+    """The process-wide registry: built-ins, every module in :data:`BEHAVIOUR_MODULES`, and the
+    node plugins of installed packages (entry-point group ``marknav.nodes``, see
+    :mod:`marknav.missions.plugins`)."""
     global _default
     with _default_lock:
         if _default is None:
+            from marknav.missions.plugins import add_entry_point_plugins
+
             registry = builtin_registry()
             for module_name in BEHAVIOUR_MODULES:
                 importlib.import_module(module_name).register(registry)
+            add_entry_point_plugins(registry)
             _default = registry
         return _default
+
+
+def registry_with_plugins(
+    modules: Sequence[str], folder: Path | None = None, base: NodeRegistry | None = None
+) -> tuple[NodeRegistry, list[tuple[int, str]]]:
+    """A copy of ``base`` (default: :func:`default_registry`) with a mission's ``plugins``
+    modules registered, and the problems as ``(index in modules, message)``; a module that fails
+    adds nothing (its node types then show up as unknown)."""
+    from marknav.missions.plugins import PluginError, add_module_plugin
+
+    registry = (base or default_registry()).copy()
+    problems: list[tuple[int, str]] = []
+    for i, module_name in enumerate(modules):
+        trial = registry.copy()
+        try:
+            add_module_plugin(trial, module_name, folder)
+        except PluginError as exc:
+            problems.append((i, str(exc)))
+            continue
+        registry = trial
+    return registry, problems

@@ -19,7 +19,7 @@ import py_trees
 from marknav.behaviours import keys
 from marknav.behaviours.route import build_route_tree, failure_reason
 from marknav.errors import InputError
-from marknav.missions.registry import BuildContext, build_tree, default_registry
+from marknav.missions.registry import BuildContext, build_tree
 from marknav.missions.report import ABORTED, EventLog, RunReport, WaypointResult
 from marknav.missions.runner import Environment, RunOptions, run_tree
 from marknav.missions.schema import Mission, load_mission
@@ -62,7 +62,7 @@ def default_max_time_s(mission: Mission) -> float:
 def build_mission_tree(mission: Mission) -> py_trees.behaviour.Behaviour:
     """The mission's own ``tree:`` if it has one, else the default route tree."""
     if mission.tree is not None:
-        return build_tree(mission.tree, default_registry(), BuildContext(mission=mission))
+        return build_tree(mission.tree, mission.registry, BuildContext(mission=mission))
     return build_route_tree(mission)
 
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import difflib
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -39,13 +39,16 @@ from pydantic import (
 from pydantic_core import InitErrorDetails, PydanticCustomError
 
 from marknav.errors import InputError, InputErrors
+from marknav.missions.overrides import Override, apply_overrides, relabel
 from marknav.missions.registry import (
     UNKNOWN_KEY,
     NodeRegistry,
     TreeNode,
     default_registry,
     model_problems,
+    registry_with_plugins,
 )
+from marknav.missions.tree_checks import check_tree
 from marknav.vision.palette import ColourRange, Palette
 from marknav.yamlio import Loc, Position, YamlDocument, load_yaml_file, validation_errors
 
@@ -56,6 +59,14 @@ WHEEL_BASE_MM = {"create1": 258.0, "create2": 235.0}
 #: The paper's eq. 19, fitted to its Table 1 (mark radius 100 mm).
 PAPER_POWER_A = 58958.0
 PAPER_POWER_B = -0.9434
+
+#: Largest camera side, and largest image, a mission may ask for: the simulator renders and the
+#: detector scans every pixel; measured peak memory of a simulated run grows by about
+#: SIM_BYTES_PER_PIXEL bytes a pixel (185 MiB at 640 × 480, 790 MiB at 1920 × 1080, 2.9 GiB at
+#: 3840 × 2160), so a 10000 × 10000 camera would need tens of GiB.
+MAX_CAMERA_SIDE_PX = 4096
+MAX_CAMERA_PIXELS = 1920 * 1080
+SIM_BYTES_PER_PIXEL = 340
 
 Hue = Annotated[int, Field(ge=0, le=179)]
 ColourName = Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_-]*$")]
@@ -223,8 +234,10 @@ class Camera(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    width: int = Field(default=640, gt=0, le=10000, description="Image width in pixels.")
-    height: int = Field(default=480, gt=0, le=10000, description="Image height in pixels.")
+    width: int = Field(default=640, gt=0, le=MAX_CAMERA_SIDE_PX,
+                       description="Image width in pixels.")
+    height: int = Field(default=480, gt=0, le=MAX_CAMERA_SIDE_PX,
+                        description="Image height in pixels.")
     focal_px: float = Field(
         default=590.0, gt=0, allow_inf_nan=False,
         description="Focal length in pixels: the simulated camera's, and the horizontal field of "
@@ -256,6 +269,22 @@ class Camera(BaseModel):
                     "range_model", f"unknown range model {model!r}{hint}", ("model",), model)
             raise ValidationError.from_exception_data("Camera", [problem])
         return handler(value)
+
+    @model_validator(mode="after")
+    def _pixel_budget(self) -> Camera:
+        pixels = self.width * self.height
+        if pixels > MAX_CAMERA_PIXELS:
+            field = "height" if "height" in self.model_fields_set else "width"
+            raise ValidationError.from_exception_data("Camera", [_problem(
+                "camera_pixels",
+                f"{self.width} × {self.height} = {pixels / 1e6:.1f} Mpx is more than the "
+                f"{MAX_CAMERA_PIXELS / 1e6:.1f} Mpx (1920 × 1080) marknav handles: the "
+                f"simulator needs about {SIM_BYTES_PER_PIXEL} bytes a pixel "
+                f"({pixels * SIM_BYTES_PER_PIXEL / 2**30:.1f} GiB here); marks are found at "
+                "640 × 480",
+                (field,), getattr(self, field),
+            )])
+        return self
 
     @property
     def hfov_deg(self) -> float:
@@ -402,6 +431,12 @@ class Mission(BaseModel):
     safety: Safety = Field(default=Safety(), description="Safety layer timeouts and limits.")
     control: Control = Field(default=Control(), description="The control loop.")
     sim: Sim | None = Field(default=None, description="Simulator settings: world file and seed.")
+    plugins: list[Annotated[str, Field(min_length=1)]] = Field(
+        default_factory=list,
+        description="Python modules that register node types for tree: (each provides "
+        "register(registry)); found on sys.path or in this file's folder. Installed packages "
+        "can also register node types through the entry-point group marknav.nodes.",
+    )
     tree: TreeNode | None = Field(
         default=None,
         description="A custom behaviour tree built from py_trees composites, decorators and "
@@ -410,6 +445,8 @@ class Mission(BaseModel):
 
     _document: YamlDocument | None = PrivateAttr(None)
     _source_path: Path | None = PrivateAttr(None)
+    _registry: NodeRegistry | None = PrivateAttr(None)
+    _overrides: tuple[str, ...] = PrivateAttr(())
 
     # validation -----------------------------------------------------------------------------
 
@@ -432,6 +469,17 @@ class Mission(BaseModel):
             ))
         _raise("Mission", problems)
         return route
+
+    @field_validator("tree")
+    @classmethod
+    def _tree_against_route(cls, tree: TreeNode | None, info: ValidationInfo) -> TreeNode | None:
+        marks, route = info.data.get("marks"), info.data.get("route")
+        if tree is None or not isinstance(marks, Marks) or not isinstance(route, list):
+            return tree  # marks or route have their own errors
+        context = info.context if isinstance(info.context, dict) else {}
+        registry = context.get("registry") or default_registry()
+        _raise("Mission", check_tree(tree, marks.colours, route, registry))
+        return tree
 
     @model_validator(mode="after")
     def _cross_checks(self) -> Mission:
@@ -524,6 +572,17 @@ class Mission(BaseModel):
         return f"{' → '.join(self.route)}, {n} waypoint{'s' if n != 1 else ''}"
 
     @property
+    def registry(self) -> NodeRegistry:
+        """The node types this mission's tree is built from: the default registry plus its
+        ``plugins``."""
+        return self._registry if self._registry is not None else default_registry()
+
+    @property
+    def overrides(self) -> tuple[str, ...]:
+        """The ``--set KEY=VALUE`` settings applied on top of the file, as given."""
+        return self._overrides
+
+    @property
     def document(self) -> YamlDocument | None:
         """The YAML document the mission was loaded from (positions of every key), if any."""
         return self._document
@@ -563,10 +622,16 @@ def _fmt(loc: Loc) -> str:
 # --------------------------------------------------------------------------------------------
 
 
-def parse_mission(doc: YamlDocument, registry: NodeRegistry | None = None) -> Mission:
+def parse_mission(
+    doc: YamlDocument,
+    registry: NodeRegistry | None = None,
+    overrides: Sequence[Override] = (),
+) -> Mission:
     """Validate a parsed YAML document as a mission; raise :class:`InputErrors` with every
-    problem. ``registry`` (default: :func:`default_registry`) decides which tree node types exist.
-    ``sim.world`` is resolved relative to the document's file."""
+    problem. ``registry`` (default: :func:`default_registry`) decides which tree node types exist;
+    the mission's own ``plugins`` modules are added to a copy of it. ``overrides`` (``--set``)
+    are applied first; problems in them are reported at the setting. ``sim.world`` is resolved
+    relative to the document's file."""
     if not isinstance(doc.data, dict):
         pos = doc.position(())
         raise InputError(
@@ -574,16 +639,49 @@ def parse_mission(doc: YamlDocument, registry: NodeRegistry | None = None) -> Mi
             f"not {_kind(doc.data)}",
             file=doc.path, line=pos.line if pos else 1, column=pos.column if pos else 1,
         )
-    context = {"registry": registry or default_registry()}
+    doc = apply_overrides(doc, overrides)
+    base = registry or default_registry()
+    registry, plugin_errors = _with_plugins(doc, base)
+    context = {"registry": registry}
     try:
         mission = Mission.model_validate(doc.data, context=context)
     except ValidationError as exc:
-        raise _mission_errors(exc, doc) from None
+        errors = [*plugin_errors, *_mission_errors(exc, doc).errors]
+        errors = relabel(errors, overrides)
+        raise InputErrors(sorted(errors, key=_error_order)) from None
+    if plugin_errors:
+        raise InputErrors(relabel(plugin_errors, overrides))
     mission._document = doc
     mission._source_path = Path(doc.path)
+    mission._registry = registry if registry is not base else None
+    mission._overrides = tuple(o.text for o in overrides)
     if mission.sim is not None and mission.sim.world is not None:
         mission.sim.world = Path(doc.path).parent / mission.sim.world
     return mission
+
+
+def _error_order(e: InputError) -> tuple[int, int, int]:
+    # File errors by position; errors of --set settings (no line) after them.
+    return (1 if e.line is None else 0, e.line or 0, e.column or 0)
+
+
+def _with_plugins(doc: YamlDocument, base: NodeRegistry) -> tuple[NodeRegistry, list[InputError]]:
+    """``base`` plus the mission's ``plugins`` (when it lists valid module names), and one error
+    per plugin that failed, at its line."""
+    modules = doc.data.get("plugins") if isinstance(doc.data, dict) else None
+    if not isinstance(modules, list) or not modules:
+        return base, []
+    names = [m if isinstance(m, str) and m else "" for m in modules]
+    registry, problems = registry_with_plugins(
+        [n for n in names if n], Path(doc.path).resolve().parent, base)
+    valid = [i for i, n in enumerate(names) if n]  # positions of the names tried
+    errors: list[InputError] = []
+    for j, message in problems:
+        loc: Loc = ("plugins", valid[j])
+        pos = doc.position(loc)
+        errors.append(InputError(message, file=doc.path, line=pos.line if pos else None,
+                                 column=pos.column if pos else None, field=_fmt(loc)))
+    return registry, errors
 
 
 def _kind(value: Any) -> str:
@@ -598,10 +696,15 @@ def _kind(value: Any) -> str:
     return "null" if value is None else type(value).__name__
 
 
-def load_mission(path: str | Path, registry: NodeRegistry | None = None) -> Mission:
-    """Load and check a mission file. Bad input raises :class:`InputError` (one problem) or
-    :class:`InputErrors` (all of them), each ``FILE:LINE:COLUMN: field: message``."""
-    return parse_mission(load_yaml_file(path), registry)
+def load_mission(
+    path: str | Path,
+    registry: NodeRegistry | None = None,
+    overrides: Sequence[Override] = (),
+) -> Mission:
+    """Load and check a mission file, with ``--set`` ``overrides`` applied. Bad input raises
+    :class:`InputError` (one problem) or :class:`InputErrors` (all of them), each
+    ``FILE:LINE:COLUMN: field: message``."""
+    return parse_mission(load_yaml_file(path), registry, overrides)
 
 
 def _mission_errors(exc: ValidationError, doc: YamlDocument) -> InputErrors:
@@ -621,10 +724,18 @@ def _mission_errors(exc: ValidationError, doc: YamlDocument) -> InputErrors:
     return InputErrors(errors)
 
 
-def mission_json_schema(registry: NodeRegistry | None = None) -> dict[str, Any]:
+def mission_json_schema(
+    registry: NodeRegistry | None = None, plugins: Sequence[str] = ()
+) -> dict[str, Any]:
     """JSON Schema of mission files, for editors: every key with its description, the tree node
-    types of ``registry`` as suggestions, and each node type's params and required keys."""
+    types of ``registry`` (plus the ``plugins`` modules) as suggestions, and each node type's
+    params and required keys."""
     registry = registry or default_registry()
+    if plugins:
+        registry, problems = registry_with_plugins(plugins, Path.cwd(), registry)
+        if problems:
+            raise InputErrors([InputError(message, field=f"--plugin {plugins[i]}")
+                               for i, message in problems])
     schema = Mission.model_json_schema()
     defs: dict[str, Any] = schema.setdefault("$defs", {})
     node = defs["TreeNode"]

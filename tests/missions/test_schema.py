@@ -146,7 +146,7 @@ def test_document_is_not_dumped_and_a_dump_reloads(tmp_path: Path) -> None:
     m = load_mission(write(tmp_path, MINIMAL + "sim: {world: w.yaml, seed: 3}\n"))
     dumped = m.model_dump(mode="json")
     assert set(dumped) == {"name", "marks", "route", "robot", "camera", "navigation", "safety",
-                           "control", "sim", "tree"}
+                           "control", "sim", "plugins", "tree"}
     assert "document" not in dumped and "_document" not in dumped
     # (Mission equality would compare the private document too.)
     assert Mission.model_validate(dumped).model_dump(mode="json") == dumped
@@ -217,7 +217,7 @@ def test_speed_above_the_create_limit(tmp_path: Path) -> None:
         ("control: {rate_hz: 200}\n",
          "M:7:20: control.rate_hz: Input should be less than or equal to 100"),
         ("colour: red\n", "M:7:1: colour: unknown key 'colour' (allowed: camera, control, marks, "
-         "name, navigation, robot, route, safety, sim, tree)"),
+         "name, navigation, plugins, robot, route, safety, sim, tree)"),
         ("safety: {command_timeout_s: 0}\n",
          "M:7:29: safety.command_timeout_s: Input should be greater than 0"),
         ("navigation: {search: {timeout_s: -1}}\n",

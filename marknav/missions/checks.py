@@ -1,0 +1,133 @@
+"""One validator: every check ``run`` and ``tree`` make before they start, in one place.
+
+``marknav validate``, ``marknav tree`` and ``marknav run`` all go through :func:`check_mission`,
+so whatever ``run`` or ``tree`` would refuse, ``validate`` refuses first, with the same message
+and place. ``run`` adds only what needs the hardware (opening the port and the camera).
+
+In order, and all reported together where one does not depend on another:
+
+1. the file: YAML, the mission schema (every key, range and cross-field rule), ``--set``
+   settings, ``plugins`` (:func:`marknav.missions.schema.load_mission`), resource limits (the
+   camera's pixel budget), and a custom ``tree:`` against the palette and the route
+   (:mod:`marknav.missions.tree_checks`, which also derives Waypoint indices);
+2. building the tree (each node type's factory with its params: a plugin's own checks);
+3. the simulator world, when the mission names one (``sim.world``) or ``run --world FILE`` does:
+   its own format, its colours against the mission's palette, a mark of each route colour, and
+   the mission's ``marks.radius_mm`` not making its marks overlap.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Sequence
+from pathlib import Path
+from types import ModuleType
+
+from pydantic import ValidationError
+
+from marknav.errors import InputError, InputErrors
+from marknav.missions.overrides import Override, relabel
+from marknav.missions.schema import Mission, load_mission
+
+__all__ = ["check_mission", "check_world", "checked_mission"]
+
+
+def check_mission(
+    path: str | Path,
+    overrides: Sequence[Override] = (),
+    *,
+    world: str | Path | None = None,
+) -> tuple[Mission | None, list[InputError]]:
+    """The mission (``None`` if its file does not load) and every problem found. ``world``
+    replaces the mission's ``sim.world`` (``run --world FILE``)."""
+    try:
+        mission = load_mission(path, overrides=overrides)
+    except InputErrors as exc:
+        return None, list(exc.errors)
+    except InputError as exc:
+        return None, [exc]
+    errors = check_build(mission)
+    errors.extend(check_world(mission, world))
+    return mission, relabel(errors, overrides)
+
+
+def checked_mission(
+    path: str | Path,
+    overrides: Sequence[Override] = (),
+    *,
+    world: str | Path | None = None,
+) -> Mission:
+    """The mission if :func:`check_mission` finds nothing; else :class:`InputErrors` with all."""
+    mission, errors = check_mission(path, overrides, world=world)
+    if errors:
+        raise InputErrors(errors)
+    assert mission is not None
+    return mission
+
+
+def check_build(mission: Mission) -> list[InputError]:
+    """Problems building the mission's tree (none for the default route tree)."""
+    if mission.tree is None:
+        return []
+    from marknav.missions.run import build_mission_tree
+
+    try:
+        build_mission_tree(mission)
+    except InputErrors as exc:
+        return list(exc.errors)
+    except InputError as exc:
+        return [exc]
+    return []
+
+
+def _world_module() -> ModuleType | None:
+    try:
+        return importlib.import_module("marknav.sim.world")
+    except ImportError as exc:
+        if exc.name in ("marknav.sim.world", "marknav.sim"):
+            return None
+        raise
+
+
+def check_world(mission: Mission, world: str | Path | None = None) -> list[InputError]:
+    """Problems of the simulator world the mission would run in (``world``, else its
+    ``sim.world``); none when the world is generated."""
+    if world is not None:
+        world_path = Path(world)
+        where: tuple[str, ...] = ()
+    elif mission.sim is not None and mission.sim.world is not None:
+        world_path = mission.sim.world
+        where = ("sim", "world")
+    else:
+        return []
+    if not world_path.is_file():
+        if where:
+            return [mission.input_error(where, f"no such world file: {world_path}")]
+        return [InputError("no such world file", file=str(world_path), field="--world")]
+    worldmod = _world_module()
+    if worldmod is None:  # the simulator is not installed: the world cannot be checked
+        return []
+    try:
+        loaded = worldmod.load_world(world_path)
+        worldmod.check_against_palette(loaded, mission.palette(), str(world_path))
+    except InputErrors as exc:
+        return list(exc.errors)
+    except InputError as exc:
+        return [exc]
+    errors: list[InputError] = []
+    present = {mark.colour for mark in loaded.marks}
+    reported: set[str] = set()
+    for i, colour in enumerate(mission.route):
+        if colour not in present and colour not in reported:
+            reported.add(colour)
+            errors.append(mission.input_error(
+                ("route", i), f"no {colour} mark in the world {world_path}"))
+    try:
+        loaded.with_mark_radius(mission.marks.radius_mm)
+    except ValidationError as exc:
+        detail = exc.errors(include_url=False)[0]["msg"].removeprefix("Value error, ")
+        errors.append(mission.input_error(
+            ("marks", "radius_mm"),
+            f"with marks {mission.marks.radius_mm:g} mm in radius, the marks of the world "
+            f"{world_path} overlap: {detail}"))
+    return errors
