@@ -103,7 +103,7 @@ def check_world(mission: Mission, world: str | Path | None = None) -> list[Input
     if not world_path.is_file():
         if where:
             return [mission.input_error(where, f"no such world file: {world_path}")]
-        return [InputError("no such world file", file=str(world_path), field="--world")]
+        return [InputError("no such file", file=str(world_path))]
     worldmod = _world_module()
     if worldmod is None:  # the simulator is not installed: the world cannot be checked
         return []

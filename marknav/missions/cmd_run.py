@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from marknav.errors import InputError, MissionFailed
+from marknav.missions.cmd_validate import SET_HELP
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -45,18 +46,24 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--max-time", type=float, metavar="SECONDS",
                    help="give up after this much mission time (default 60 s + 40 s per "
                         "waypoint)")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", dest="overrides",
+                   help=SET_HELP + "; recorded in the report")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    from marknav.missions.checks import checked_mission
+    from marknav.missions.overrides import parse_overrides
     from marknav.missions.run import RunRequest, default_run_dir, execute, summary
-    from marknav.missions.schema import load_mission
 
     if args.max_time is not None and not args.max_time > 0:
         raise InputError(f"must be positive, got {args.max_time}", field="--max-time")
     if args.seed is not None and args.seed < 0:
         raise InputError(f"must be ≥ 0, got {args.seed}", field="--seed")
-    mission = load_mission(args.mission)
+    overrides = parse_overrides(args.overrides)
+    world = None if args.world in (None, "generate", "random") else args.world
+    # Everything 'marknav validate' checks, before anything starts; then only the hardware.
+    mission = checked_mission(args.mission, overrides, world=world)
     report_path: Path = args.report or default_run_dir(mission) / "report.json"
     events_path: Path = args.events or report_path.with_name(report_path.stem + ".events.jsonl")
     generated = args.world in ("generate", "random")

@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from marknav.errors import InputError
+from marknav.missions.cmd_validate import SET_HELP
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -19,16 +20,21 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--dot", metavar="FILE", type=Path,
                    help="also write the tree as Graphviz dot (render with: dot -Tpng FILE)")
     p.add_argument("--unicode", action="store_true", help="draw with unicode symbols")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", dest="overrides",
+                   help=SET_HELP)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     import py_trees
 
+    from marknav.missions.checks import checked_mission
+    from marknav.missions.overrides import parse_overrides
     from marknav.missions.run import build_mission_tree
-    from marknav.missions.schema import load_mission
 
-    mission = load_mission(args.mission)
+    # The same checks as 'marknav validate' (and 'run'): a tree is only drawn for a mission
+    # that would run.
+    mission = checked_mission(args.mission, parse_overrides(args.overrides))
     root = build_mission_tree(mission)
     draw = py_trees.display.unicode_tree if args.unicode else py_trees.display.ascii_tree
     print(f"# {mission.name}: {mission.route_summary()}")

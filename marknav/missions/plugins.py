@@ -54,7 +54,7 @@ def _register_of(obj: Any, what: str) -> Register:
         obj = fn
     if not callable(obj):
         raise PluginError(f"{what} is not a module or a register(registry) callable")
-    return obj  # type: ignore[no-any-return]
+    return obj
 
 
 def _call(register: Register, registry: NodeRegistry, what: str) -> None:

@@ -6,7 +6,8 @@ in a ``finally`` block, so an aborted, failed or interrupted run loses nothing.
 Report keys: ``outcome`` ("success" | "failed" | "aborted"), ``reason``, ``sim_time_s``,
 ``wall_time_s``, ``ticks``, ``waypoints: [{colour, side, outcome, passed_on, min_clearance_mm}]``,
 ``collisions``, ``safety_events: [{t, event, state}]``, ``tick_ms: {p50, p99, max}``,
-``overruns`` — plus ``mission``, ``seed``, ``robot``, ``camera`` and ``speedup``.
+``overruns`` — plus ``mission``, ``seed``, ``robot``, ``camera``, ``speedup``, and ``overrides``:
+the ``--set KEY=VALUE`` settings the run used on top of the mission file.
 """
 
 from __future__ import annotations
@@ -52,6 +53,8 @@ class RunReport:
     # Simulator only: the simulated Create after the run (wheels, OI mode): proof that the
     # wheels were stopped and the robot returned to Passive, whatever ended the run.
     sim_final: dict[str, Any] | None = None
+    # The --set KEY=VALUE settings the mission ran with, on top of its file.
+    overrides: list[str] = field(default_factory=list)
 
     @property
     def speedup(self) -> float | None:

@@ -183,6 +183,7 @@ def execute(req: RunRequest) -> RunResult:
         mission=mission.name, seed=seed if req.robot == "sim" else None,
         robot=req.robot, camera=req.camera,
         waypoints=[WaypointResult(colour=c, side=mission.side_of(c)) for c in mission.route],
+        overrides=list(mission.overrides),
     )
     events = EventLog(req.events_path)
     options = RunOptions(
