@@ -19,15 +19,17 @@ In order, and all reported together where one does not depend on another:
 from __future__ import annotations
 
 import importlib
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from types import ModuleType
 
 from pydantic import ValidationError
 
 from marknav.errors import InputError, InputErrors
-from marknav.missions.overrides import Override, relabel
-from marknav.missions.schema import Mission, load_mission
+from marknav.missions.overrides import Override, apply_overrides, relabel
+from marknav.missions.schema import Marks, Mission, Sim, load_mission
+from marknav.vision.palette import ColourRange
+from marknav.yamlio import load_yaml_file
 
 __all__ = ["check_mission", "check_world", "checked_mission"]
 
@@ -43,12 +45,17 @@ def check_mission(
     try:
         mission = load_mission(path, overrides=overrides)
     except InputErrors as exc:
-        return None, list(exc.errors)
+        return None, _merge(exc.errors, _world_of_invalid_mission(path, overrides, world))
     except InputError as exc:
         return None, [exc]
     errors = check_build(mission)
     errors.extend(check_world(mission, world))
     return mission, relabel(errors, overrides)
+
+
+def _merge(first: Sequence[InputError], more: Sequence[InputError]) -> list[InputError]:
+    seen = {str(e) for e in first}
+    return [*first, *(e for e in more if str(e) not in seen)]
 
 
 def checked_mission(
@@ -89,27 +96,70 @@ def _world_module() -> ModuleType | None:
         raise
 
 
+Locate = Callable[[tuple[str | int, ...], str], InputError]
+
+
 def check_world(mission: Mission, world: str | Path | None = None) -> list[InputError]:
     """Problems of the simulator world the mission would run in (``world``, else its
     ``sim.world``); none when the world is generated."""
     if world is not None:
-        world_path = Path(world)
-        where: tuple[str, ...] = ()
-    elif mission.sim is not None and mission.sim.world is not None:
-        world_path = mission.sim.world
-        where = ("sim", "world")
-    else:
+        return _world_problems(mission.marks, mission.route, Path(world), (),
+                               mission.input_error)
+    if mission.sim is not None and mission.sim.world is not None:
+        return _world_problems(mission.marks, mission.route, mission.sim.world, ("sim", "world"),
+                               mission.input_error)
+    return []
+
+
+def _world_of_invalid_mission(
+    path: str | Path, overrides: Sequence[Override], world: str | Path | None
+) -> list[InputError]:
+    """The world checks of a mission with errors elsewhere, when the parts they need (marks,
+    route, sim.world) are valid on their own: so one round reports the world's problems too."""
+    try:
+        doc = apply_overrides(load_yaml_file(path), overrides)
+    except InputError:
         return []
+    data = doc.data if isinstance(doc.data, dict) else {}
+    try:
+        marks = Marks.model_validate(data.get("marks"))
+        sim = Sim.model_validate(data.get("sim") or {})
+    except ValidationError:
+        return []
+    route = data.get("route")
+    if not (isinstance(route, list) and route
+            and all(isinstance(c, str) and c in marks.colours for c in route)):
+        return []
+
+    def locate(loc: tuple[str | int, ...], message: str) -> InputError:
+        pos = doc.position(loc)
+        field = ".".join(str(p) for p in loc) if not any(isinstance(p, int) for p in loc) else (
+            f"{loc[0]}[{loc[1]}]")
+        return InputError(message, file=doc.path, line=pos.line if pos else None,
+                          column=pos.column if pos else None, field=field)
+
+    if world is not None:
+        return _world_problems(marks, route, Path(world), (), locate)
+    if sim.world is None:
+        return []
+    return _world_problems(marks, route, Path(doc.path).parent / sim.world, ("sim", "world"),
+                           locate)
+
+
+def _world_problems(
+    marks: Marks, route: Sequence[str], world_path: Path, where: tuple[str, ...], locate: Locate
+) -> list[InputError]:
     if not world_path.is_file():
         if where:
-            return [mission.input_error(where, f"no such world file: {world_path}")]
+            return [locate(where, f"no such world file: {world_path}")]
         return [InputError("no such file", file=str(world_path))]
     worldmod = _world_module()
     if worldmod is None:  # the simulator is not installed: the world cannot be checked
         return []
+    palette = [ColourRange(name, spec.hue[0], spec.hue[1]) for name, spec in marks.colours.items()]
     try:
         loaded = worldmod.load_world(world_path)
-        worldmod.check_against_palette(loaded, mission.palette(), str(world_path))
+        worldmod.check_against_palette(loaded, palette, str(world_path))
     except InputErrors as exc:
         return list(exc.errors)
     except InputError as exc:
@@ -117,17 +167,16 @@ def check_world(mission: Mission, world: str | Path | None = None) -> list[Input
     errors: list[InputError] = []
     present = {mark.colour for mark in loaded.marks}
     reported: set[str] = set()
-    for i, colour in enumerate(mission.route):
+    for i, colour in enumerate(route):
         if colour not in present and colour not in reported:
             reported.add(colour)
-            errors.append(mission.input_error(
-                ("route", i), f"no {colour} mark in the world {world_path}"))
+            errors.append(locate(("route", i), f"no {colour} mark in the world {world_path}"))
     try:
-        loaded.with_mark_radius(mission.marks.radius_mm)
+        loaded.with_mark_radius(marks.radius_mm)
     except ValidationError as exc:
         detail = exc.errors(include_url=False)[0]["msg"].removeprefix("Value error, ")
-        errors.append(mission.input_error(
+        errors.append(locate(
             ("marks", "radius_mm"),
-            f"with marks {mission.marks.radius_mm:g} mm in radius, the marks of the world "
+            f"with marks {marks.radius_mm:g} mm in radius, the marks of the world "
             f"{world_path} overlap: {detail}"))
     return errors

@@ -107,11 +107,12 @@ def check_tree(
         if node.type in DRIVES_WAYPOINT:
             covered.add(index)
         if colour_ok and route[index] != colour:
-            source = "its derived index" if derived else index_key
+            source = (f"index {index} follows from the Waypoints before it" if derived
+                      else f"{index_key}: {index}")
             problems.append(_problem(
                 "route_colour_order",
-                f"{node.type} colour {colour!r} at route index {index} ({source}), but "
-                f"route[{index}] is {route[index]!r}",
+                f"{node.type} colour {colour!r}, but route[{index}] is {route[index]!r} "
+                f"({source})",
                 (*loc, "params", "colour"), colour,
             ))
     if not drives_all and any(t in registry for t in (*DRIVES_WAYPOINT, *DRIVES_ROUTE)):
