@@ -157,14 +157,19 @@ def _world_problems(
     if worldmod is None:  # the simulator is not installed: the world cannot be checked
         return []
     palette = [ColourRange(name, spec.hue[0], spec.hue[1]) for name, spec in marks.colours.items()]
+    errors: list[InputError] = []
     try:
         loaded = worldmod.load_world(world_path)
-        worldmod.check_against_palette(loaded, palette, str(world_path))
     except InputErrors as exc:
         return list(exc.errors)
     except InputError as exc:
         return [exc]
-    errors: list[InputError] = []
+    try:
+        worldmod.check_against_palette(loaded, palette, str(world_path))
+    except InputErrors as exc:
+        errors.extend(exc.errors)
+    except InputError as exc:
+        errors.append(exc)
     present = {mark.colour for mark in loaded.marks}
     reported: set[str] = set()
     for i, colour in enumerate(route):

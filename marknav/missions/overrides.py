@@ -91,7 +91,8 @@ def apply_overrides(doc: YamlDocument, overrides: Sequence[Override]) -> YamlDoc
                 part = str(part)
                 if not last and not isinstance(node.get(part), (dict, list)):
                     if part in node and node[part] is not None:
-                        raise InputError(f"{where}.{part} is not a mapping",
+                        inner = ".".join(str(p) for p in o.loc[:depth + 1])
+                        raise InputError(f"{inner} is not a mapping",
                                          file=f"--set {o.text}", field=o.field)
                     node[part] = {}
             else:

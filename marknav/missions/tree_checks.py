@@ -65,6 +65,7 @@ def check_tree(
     covered: set[int] = set()
     drives_all = False
     next_index = 0
+    out_of_range = False
     n = len(route)
     for node, loc in _walk(tree):
         if node.type not in registry:
@@ -95,6 +96,7 @@ def check_tree(
         if node.type == "Waypoint":
             next_index = index + 1
         if index >= n:
+            out_of_range = True  # the likely reason for an undriven waypoint: say it once
             what = (f"this Waypoint has no index, so it takes the one after the previous "
                     f"Waypoint's: {index}" if derived else f"index {index}")
             problems.append(_problem(
@@ -115,7 +117,7 @@ def check_tree(
                 f"({source})",
                 (*loc, "params", "colour"), colour,
             ))
-    if not drives_all and any(t in registry for t in (*DRIVES_WAYPOINT, *DRIVES_ROUTE)):
+    if not drives_all and not out_of_range and any(t in registry for t in (*DRIVES_WAYPOINT, *DRIVES_ROUTE)):
         # (a registry without marknav's behaviours, as a library user may build, has no way
         # to drive a waypoint: nothing to ask for)
         missing = [i for i in range(n) if i not in covered]
