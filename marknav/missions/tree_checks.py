@@ -117,7 +117,8 @@ def check_tree(
                 f"({source})",
                 (*loc, "params", "colour"), colour,
             ))
-    if not drives_all and not out_of_range and any(t in registry for t in (*DRIVES_WAYPOINT, *DRIVES_ROUTE)):
+    can_drive = any(t in registry for t in (*DRIVES_WAYPOINT, *DRIVES_ROUTE))
+    if not drives_all and not out_of_range and can_drive:
         # (a registry without marknav's behaviours, as a library user may build, has no way
         # to drive a waypoint: nothing to ask for)
         missing = [i for i in range(n) if i not in covered]
