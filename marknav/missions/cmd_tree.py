@@ -19,7 +19,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("mission", metavar="MISSION", help="mission YAML file")
     p.add_argument("--dot", metavar="FILE", type=Path,
                    help="also write the tree as Graphviz dot (render with: dot -Tpng FILE)")
-    p.add_argument("--unicode", action="store_true", help="draw with unicode symbols")
+    p.add_argument("--unicode", action="store_true",
+                   help="draw with box-drawing lines and a symbol per node kind")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", dest="overrides",
                    help=SET_HELP)
     p.set_defaults(func=run)
@@ -31,19 +32,22 @@ def run(args: argparse.Namespace) -> int:
     from marknav.missions.checks import checked_mission
     from marknav.missions.overrides import parse_overrides
     from marknav.missions.run import build_mission_tree
+    from marknav.missions.tree_display import UNICODE_LEGEND, dot_tree, unicode_tree
 
     # The same checks as 'marknav validate' (and 'run'): a tree is only drawn for a mission
     # that would run.
     mission = checked_mission(args.mission, parse_overrides(args.overrides))
     root = build_mission_tree(mission)
-    draw = py_trees.display.unicode_tree if args.unicode else py_trees.display.ascii_tree
     print(f"# {mission.name}: {mission.route_summary()}")
-    print(draw(root), end="")
+    if args.unicode:
+        print(f"# {UNICODE_LEGEND}")
+        print(unicode_tree(root), end="")
+    else:
+        print(py_trees.display.ascii_tree(root), end="")
     if args.dot is not None:
-        text = py_trees.display.dot_tree(root).to_string()
         try:
-            args.dot.write_text(text, encoding="utf-8")
+            args.dot.write_text(dot_tree(root), encoding="utf-8")
         except OSError as exc:
             raise InputError(f"cannot write: {exc}", file=str(args.dot)) from None
-        print(f"# dot: {args.dot}")
+        print(f"# wrote {args.dot} (Graphviz dot; render with: dot -Tpng {args.dot} -o tree.png)")
     return 0

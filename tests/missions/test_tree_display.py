@@ -1,0 +1,68 @@
+"""``marknav tree``: unicode drawing, and dot output Graphviz reads without warnings."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import pydot
+import pytest
+
+from marknav.cli import main
+
+MISSIONS = Path(__file__).resolve().parents[2] / "missions"
+
+
+@pytest.mark.filterwarnings("ignore::DeprecationWarning")  # pydot's parser on new pyparsing
+def test_dot_has_simple_ids_unique_labels_and_says_where_it_went(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out_file = tmp_path / "tree.dot"
+    assert main(["tree", str(MISSIONS / "slalom.yaml"), "--dot", str(out_file)]) == 0
+    out = capsys.readouterr().out
+    assert out.splitlines()[-1] == (
+        f"# wrote {out_file} (Graphviz dot; render with: dot -Tpng {out_file} -o tree.png)")
+    text = out_file.read_text(encoding="utf-8")
+    [graph] = pydot.graph_from_dot_data(text)
+    nodes = [n for n in graph.get_nodes() if n.get_name() not in ("node", "edge", "graph")]
+    assert len(nodes) == 7 + 4 * 12  # Mission, its guards (5), Route; 12 nodes a waypoint
+    assert all(re.fullmatch(r"n\d+", n.get_name()) for n in nodes)
+    labels = [n.get("label") for n in nodes]
+    assert len(set(labels)) == len(labels)  # repeated nodes told apart
+    assert all(label.isascii() for label in labels)  # no glyph a default font lacks
+    assert '"Passed?\\nin Waypoint 2: green"' in labels
+    assert '"Route\\nsequence, memory"' in labels
+    for edge in graph.get_edges():  # no ports: every edge joins two node ids
+        assert re.fullmatch(r"n\d+", edge.get_source())
+        assert re.fullmatch(r"n\d+", edge.get_destination())
+
+
+@pytest.mark.skipif(shutil.which("dot") is None, reason="Graphviz is not installed")
+def test_graphviz_renders_it_without_a_warning(tmp_path: Path) -> None:
+    out_file = tmp_path / "tree.dot"
+    assert main(["tree", str(MISSIONS / "pause-at-each-mark.yaml"), "--dot", str(out_file)]) == 0
+    done = subprocess.run(["dot", "-Tsvg", str(out_file)], capture_output=True, text=True,
+                          timeout=60)
+    assert done.returncode == 0 and done.stderr == ""
+    assert done.stdout.count("<g id=\"node") == 7 + 4 * 12 + 4  # and the 4 Photo pauses
+
+
+def test_unicode_draws_box_lines_and_symbols(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["tree", str(MISSIONS / "pause-at-each-mark.yaml"), "--unicode"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1].startswith("# → sequence  ? selector")
+    assert lines[2:8] == [
+        "→ Mission",
+        "├── • Perception",
+        "├── • SafetyGuard",
+        "├── ? BumpRecovery",
+        "│   ├── • NotBumped?",
+        "│   └── • BackOff",
+    ]
+    assert "└── → Route with pauses Ⓜ" in lines
+    assert "    ├── • Photo 1" in lines and "    └── • Photo 4" in lines
+    assert main(["tree", str(MISSIONS / "pause-at-each-mark.yaml")]) == 0
+    ascii_out = capsys.readouterr().out.split("\n", 1)[1]  # below the "# name: route" line
+    assert ascii_out.isascii() and "    --> Photo 1" in ascii_out
