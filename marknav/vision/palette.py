@@ -65,9 +65,12 @@ class ColourRange:
 Palette = tuple[ColourRange, ...]
 
 #: Used by ``marknav detect`` when no mission is given.
+#: Red is narrow around 179 (where the simulator paints it) so that orange starts at 4: orange
+#: sweets in OpenCV's smarties.png have mean hues 6.7-8.7 (red ones 179.2-179.8), and a red range
+#: up to 8 called them red.
 DEFAULT_PALETTE: Palette = (
-    ColourRange("red", 170, 8),
-    ColourRange("orange", 9, 20),
+    ColourRange("red", 175, 3),
+    ColourRange("orange", 4, 20),
     ColourRange("yellow", 21, 35),
     ColourRange("green", 40, 85),
     ColourRange("blue", 95, 130),

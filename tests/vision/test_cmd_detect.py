@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import cv2
@@ -64,3 +65,47 @@ def test_unreadable_images_exit_2_naming_the_file(
     captured = capsys.readouterr()
     assert str(path) in captured.err
     assert captured.out == ""  # nothing printed for the good image before failing
+
+
+def test_mission_range_law_gives_each_mark_its_distance(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A simulator frame (the camera slalom.yaml's law was fitted for) of a red mark 1.8 m ahead
+    # and 0.3 m to the left: detect --mission slalom.yaml reports where it is.
+    from marknav.missions.schema import load_mission
+    from marknav.planning.kinematics import Pose
+    from marknav.sim.camera import CameraConfig, render
+    from marknav.sim.world import Background, Conditions, MarkSpec, World
+
+    mission = load_mission(SLALOM)
+    world = World(marks=(MarkSpec(colour="red", x_mm=-300, y_mm=1800, radius_mm=100),),
+                  conditions=Conditions(noise_sigma=0.0), background=Background(clutter=0))
+    frame = render(world, Pose(0.0, 0.0, math.pi / 2), CameraConfig(), mission.palette(), None)
+    path = tmp_path / "red.png"
+    cv2.imwrite(str(path), frame)
+
+    assert main(["detect", str(path), "--mission", str(SLALOM), "--json"]) == 0
+    [mark] = json.loads(capsys.readouterr().out)[0]["marks"]
+    assert mark["colour"] == "red"
+    assert mark["distance_mm"] == pytest.approx(1800, rel=0.03)
+    assert mark["left_mm"] == pytest.approx(300, abs=30)
+
+    assert main(["detect", str(path), "--mission", str(SLALOM)]) == 0
+    text = capsys.readouterr().out
+    assert f"distance={mark['distance_mm']:6.0f} mm left={mark['left_mm']:6.0f} mm" in text
+    assert "note:" not in text  # the frame is the mission camera's size
+
+    small = tmp_path / "small.png"
+    cv2.imwrite(str(small), cv2.resize(frame, (320, 240)))
+    assert main(["detect", str(small), "--mission", str(SLALOM)]) == 0
+    assert ("note: the image is 320×240, the mission's camera 640×480" in
+            capsys.readouterr().out)
+
+
+def test_default_palette_tells_orange_sweets_from_red(capsys: pytest.CaptureFixture[str]) -> None:
+    # smarties.png: red ×4, orange ×2, green ×3 (one cut by the edge), blue ×3.
+    assert main(["detect", str(SMARTIES), "--json"]) == 0
+    marks = json.loads(capsys.readouterr().out)[0]["marks"]
+    oranges = sorted((round(m["x"]), round(m["y"])) for m in marks if m["colour"] == "orange")
+    assert oranges == [(134, 327), (205, 211)]
+    assert sum(m["colour"] == "red" for m in marks) == 4
