@@ -47,6 +47,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                    help="--accuracy: 'paper' x -600..600 by 200, y 500..3000 by 250 mm "
                         "(default), or 'coarse' 3 x 4 points")
     p.add_argument("--plot", metavar="FILE.png", help="--accuracy: draw error against distance")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="overrides",
+                   help="change a mission setting for every run, e.g. --set "
+                        "navigation.clearance_mm=350 (dotted key, YAML value; repeatable)")
     p.set_defaults(func=run)
 
 
@@ -86,11 +89,14 @@ def run(args: argparse.Namespace) -> int:
     if args.runs is None:
         raise InputError("give the number of runs: --runs N", field="--runs")
     from marknav.missions.evaluate import evaluate, format_evaluation
+    from marknav.missions.overrides import parse_overrides
 
+    parse_overrides(args.overrides)  # a malformed --set: exit 2 before anything runs
     bar = ProgressBar(sys.stderr)
     try:
         ev = evaluate(args.mission, runs=args.runs, seed=args.seed, jobs=args.jobs,
-                      max_time_s=args.max_time, min_success=args.min_success, progress=bar)
+                      max_time_s=args.max_time, min_success=args.min_success, progress=bar,
+                      overrides=args.overrides)
     finally:
         bar.finish()
     if args.json:
@@ -106,6 +112,8 @@ def run(args: argparse.Namespace) -> int:
 def _accuracy(args: argparse.Namespace) -> int:
     if args.runs is not None:
         raise InputError("does not apply with --accuracy", field="--runs")
+    if args.overrides:
+        raise InputError("does not apply with --accuracy", field="--set")
     from marknav.missions.evaluate import format_accuracy, plot_accuracy, position_accuracy
 
     result = position_accuracy(args.mission, frames=args.frames, grid=args.grid,

@@ -209,16 +209,18 @@ def _quiet_runs() -> Iterator[None]:
         package.setLevel(old)
 
 
-def run_seed(mission_path: str, seed: int, max_time_s: float | None = None) -> SeedResult:
+def run_seed(mission_path: str, seed: int, max_time_s: float | None = None,
+             overrides: Sequence[str] = ()) -> SeedResult:
     """One evaluation run: load the mission, run it on the generated randomised world of ``seed``.
 
     A run that raises (a bug, not a mission failure) becomes outcome ``"error"`` with the
     exception as its reason; bad input (:class:`InputError`) and Ctrl-C propagate.
     """
+    from marknav.missions.overrides import parse_overrides
     from marknav.missions.run import RunRequest, execute
     from marknav.missions.schema import load_mission
 
-    mission = load_mission(mission_path)
+    mission = load_mission(mission_path, overrides=parse_overrides(overrides))  # --set
     req = RunRequest(mission=mission, seed=seed, generate_world=True, randomise=True,
                      max_time_s=max_time_s)
     wall0 = time.perf_counter()
@@ -242,9 +244,11 @@ def _init_worker(level: int) -> None:
 # ------------------------------------------------------------------------------ many runs
 
 
-def replay_command(mission_path: str, seed: int, max_time_s: float | None = None) -> str:
+def replay_command(mission_path: str, seed: int, max_time_s: float | None = None,
+                   overrides: Sequence[str] = ()) -> str:
     """The ``marknav run`` command that replays evaluation run ``seed`` exactly."""
     cmd = f"marknav run {shlex.quote(mission_path)} --world random --seed {seed}"
+    cmd += "".join(f" --set {shlex.quote(o)}" for o in overrides)
     if max_time_s is not None:
         cmd += f" --max-time {max_time_s:g}"
     return cmd
@@ -280,6 +284,7 @@ class Evaluation:
     wall_time_mean_s: float = 0.0
     failures: list[SeedResult] = field(default_factory=list)
     incidents: list[tuple[SeedResult, list[str]]] = field(default_factory=list)
+    overrides: tuple[str, ...] = ()  # the --set KEY=VALUE settings every run used
 
     @property
     def clearance_target_mm(self) -> float:
@@ -291,7 +296,7 @@ class Evaluation:
         return self.success_rate >= self.min_success
 
     def replay(self, seed: int) -> str:
-        return replay_command(self.mission_path, seed, self.max_time_s)
+        return replay_command(self.mission_path, seed, self.max_time_s, self.overrides)
 
     def to_dict(self) -> dict[str, Any]:
         def r(v: float | None, nd: int = 1) -> float | None:
@@ -301,6 +306,7 @@ class Evaluation:
             "mission": self.mission,
             "runs": self.runs,
             "seeds": list(self.seeds),
+            "overrides": list(self.overrides),
             "jobs": self.jobs,
             "successes": self.successes,
             "success_rate": round(self.success_rate, 4),
@@ -401,6 +407,7 @@ def evaluate(
     max_time_s: float | None = None,
     min_success: float = 0.95,
     progress: Progress | None = None,
+    overrides: Sequence[str] = (),
 ) -> Evaluation:
     """Run ``runs`` simulated missions (seeds ``seed`` … ``seed + runs − 1``) and summarise them.
 
@@ -421,7 +428,10 @@ def evaluate(
     if not 0.0 <= min_success <= 1.0:
         raise InputError(f"must be between 0 and 1, got {min_success}", field="--min-success")
     path = str(mission_path)
-    mission = load_mission(path)  # bad input fails here, before any worker starts
+    from marknav.missions.overrides import parse_overrides
+
+    # bad input (and a bad --set) fails here, before any worker starts
+    mission = load_mission(path, overrides=parse_overrides(overrides))
     seeds = list(range(seed, seed + runs))
     results: list[SeedResult] = []
     wall0 = time.perf_counter()
@@ -434,7 +444,7 @@ def evaluate(
     workers = min(jobs, runs)
     if workers == 1:
         for s in seeds:
-            done(run_seed(path, s, max_time_s))
+            done(run_seed(path, s, max_time_s, overrides))
     else:
         # spawn: fresh workers that share nothing with this process (py_trees' blackboard is
         # process-global), the same on every platform.
@@ -444,17 +454,19 @@ def evaluate(
                                    initializer=_init_worker, initargs=(level,))
         try:
             futures: list[Future[SeedResult]] = [
-                pool.submit(run_seed, path, s, max_time_s) for s in seeds]
+                pool.submit(run_seed, path, s, max_time_s, overrides) for s in seeds]
             for fut in as_completed(futures):
                 done(fut.result())
         except BaseException:
             pool.shutdown(wait=False, cancel_futures=True)
             raise
         pool.shutdown(wait=True)
-    return summarise(results, mission=mission.name, mission_path=path,
-                     clearance_mm=mission.navigation.clearance_mm, min_success=min_success,
-                     max_time_s=max_time_s, jobs=workers,
-                     wall_total_s=time.perf_counter() - wall0)
+    ev = summarise(results, mission=mission.name, mission_path=path,
+                   clearance_mm=mission.navigation.clearance_mm, min_success=min_success,
+                   max_time_s=max_time_s, jobs=workers,
+                   wall_total_s=time.perf_counter() - wall0)
+    ev.overrides = tuple(overrides)
+    return ev
 
 
 def format_evaluation(ev: Evaluation) -> str:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 import pytest
@@ -194,7 +195,8 @@ def scripted_runs(monkeypatch: pytest.MonkeyPatch) -> list[int]:
     """run_seed replaced: seeds divisible by 10 fail, the rest succeed."""
     calls: list[int] = []
 
-    def fake(path: str, seed: int, max_time_s: float | None = None) -> SeedResult:
+    def fake(path: str, seed: int, max_time_s: float | None = None,
+             overrides: Sequence[str] = ()) -> SeedResult:
         calls.append(seed)
         if seed % 10 == 0:
             return SeedResult.from_report(seed, report("aborted", "Search: timeout",
