@@ -7,6 +7,7 @@ nothing gives a traceback (the commands run in-process, so one would fail the te
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
@@ -137,3 +138,18 @@ def test_malformed_settings_exit_2(
         assert err == f"marknav validate: error: {message}"
     else:
         assert err.splitlines() == [message, "marknav validate: 1 of 1 mission file invalid"]
+
+
+def test_run_records_its_settings_in_the_report(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    report = tmp_path / "report.json"
+    slalom = CORPUS.parents[2] / "missions" / "slalom.yaml"
+    code = main(["run", str(slalom), "--tree", "none", "--max-time", "0.5", "--report",
+                 str(report), "--set", "navigation.approach_speed_mm_s=200",
+                 "--set", "sim.seed=4"])
+    assert code == 1  # 0.5 s cannot pass a mark
+    data = json.loads(report.read_text())
+    assert data["overrides"] == ["navigation.approach_speed_mm_s=200", "sim.seed=4"]
+    assert data["seed"] == 4  # the setting took effect
+    capsys.readouterr()
