@@ -96,10 +96,20 @@ def import_plugin(module_name: str, folder: Path | None = None) -> ModuleType:
                 f"importing {module_name!r} failed: {type(exc).__name__}: {exc}") from exc
 
 
+#: ``register`` functions already run for the default registry through an entry point: a mission
+#: that also lists the module under ``plugins:`` (installed *and* named) must not register twice.
+_from_entry_points: set[Register] = set()
+
+
 def add_module_plugin(registry: NodeRegistry, module_name: str, folder: Path | None = None) -> None:
-    """Import ``module_name`` and call its ``register(registry)``; :class:`PluginError` if not."""
+    """Import ``module_name`` and call its ``register(registry)``; :class:`PluginError` if not.
+    A module whose ``register`` an installed package's entry point already ran is left alone."""
     module = import_plugin(module_name, folder)
-    _call(_register_of(module, f"module {module_name!r}"), registry, module_name)
+    register = _register_of(module, f"module {module_name!r}")
+    if register in _from_entry_points:
+        log.debug("plugin %s: already registered through its entry point", module_name)
+        return
+    _call(register, registry, module_name)
 
 
 def _entry_points() -> Sequence[metadata.EntryPoint]:
@@ -118,7 +128,9 @@ def add_entry_point_plugins(registry: NodeRegistry) -> list[str]:
                 obj = ep.load()
             except Exception as exc:  # a user's package may raise anything while importing
                 raise PluginError(f"loading failed: {type(exc).__name__}: {exc}") from exc
-            _call(_register_of(obj, repr(ep.value)), registry, ep.value)
+            register = _register_of(obj, repr(ep.value))
+            _call(register, registry, ep.value)
+            _from_entry_points.add(register)
         except PluginError as exc:
             raise InputError(f"{what}: {exc}") from None
         log.debug("node plugin %s loaded", what)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -143,14 +144,17 @@ def test_broken_plugins_exit_2_at_their_line(
 
 
 def test_entry_point_of_the_installed_package(tmp_path: Path) -> None:
+    source = tmp_path / "src"
+    shutil.copytree(PKG, source)  # pip builds in the source tree: keep the repository clean
     target = tmp_path / "site"
     pip = [sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--target", str(target)]
     # Offline with the environment's setuptools when it can build wheels; else pip's isolated
     # build (which fetches setuptools).
-    install = subprocess.run([*pip, "--no-build-isolation", "--no-index", str(PKG)],
+    install = subprocess.run([*pip, "--no-build-isolation", "--no-index", str(source)],
                              capture_output=True, text=True, timeout=300)
     if install.returncode != 0:
-        install = subprocess.run([*pip, str(PKG)], capture_output=True, text=True, timeout=300)
+        install = subprocess.run([*pip, str(source)], capture_output=True, text=True,
+                                 timeout=300)
     if install.returncode != 0:
         pytest.skip(f"cannot install the user package here: {install.stderr[-500:]}")
     assert any(target.glob("marknav_wiggle-0.1.0.dist-info/entry_points.txt"))
@@ -159,10 +163,13 @@ def test_entry_point_of_the_installed_package(tmp_path: Path) -> None:
     text = MISSION.read_text()
     assert "plugins: [marknav_wiggle]\n" in text
     mission.write_text(text.replace("plugins: [marknav_wiggle]\n", ""))
+    named_too = tmp_path / "named.yaml"  # installed and named under plugins: registered once
+    named_too.write_text(text)
     marknav = [sys.executable, "-m", "marknav"]
     env = _env(target)
     for argv, expect in (
         (["validate", str(mission)], f"{mission}: ok (route: red → green, 2 waypoints)"),
+        (["validate", str(named_too)], f"{named_too}: ok (route: red → green, 2 waypoints)"),
         (["tree", str(mission)], "--> Dance after green"),
         (["schema"], '"const": "Wiggle"'),
     ):
@@ -175,3 +182,21 @@ def test_entry_point_of_the_installed_package(tmp_path: Path) -> None:
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 2
     assert "unknown node type 'Wiggle'" in done.stderr
+
+
+def test_a_broken_entry_point_is_an_input_error(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from importlib.metadata import EntryPoint
+
+    from marknav.missions import plugins, registry
+
+    broken = EntryPoint(name="broken", value="no_such_marknav_nodes_module", group="marknav.nodes")
+    monkeypatch.setattr(plugins, "_entry_points", lambda: (broken,))
+    monkeypatch.setattr(registry, "_default", None)  # rebuilt with the broken entry point
+    assert main(["validate", str(PKG.parents[2] / "missions" / "slalom.yaml")]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        "entry point marknav.nodes broken = no_such_marknav_nodes_module (package ?): loading "
+        "failed: ModuleNotFoundError: No module named 'no_such_marknav_nodes_module'",
+        "marknav validate: 1 of 1 mission file invalid"]
+    monkeypatch.setattr(registry, "_default", None)  # not cached: the next test rebuilds it
