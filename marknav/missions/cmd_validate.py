@@ -34,6 +34,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("missions", nargs="+", metavar="MISSION", help="mission YAML files")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", dest="overrides",
                    help=SET_HELP)
+    p.add_argument("--world", metavar="WORLD",
+                   help="check against this simulator world file instead of each mission's "
+                        "sim.world (as 'run --world WORLD' would run)")
     p.set_defaults(func=run)
 
 
@@ -41,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
     overrides = parse_overrides(args.overrides)
     invalid = 0
     for path in args.missions:
-        mission, errors = check_mission(path, overrides)
+        mission, errors = check_mission(path, overrides, world=args.world)
         if errors:
             invalid += 1
             for error in errors:

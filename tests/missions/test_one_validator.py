@@ -153,3 +153,20 @@ def test_run_records_its_settings_in_the_report(
     assert data["overrides"] == ["navigation.approach_speed_mm_s=200", "sim.seed=4"]
     assert data["seed"] == 4  # the setting took effect
     capsys.readouterr()
+
+
+def test_validate_with_the_world_run_would_use(capsys: pytest.CaptureFixture[str]) -> None:
+    path = CORPUS / "clearance-too-small.yaml"
+    fixed = ["--set", "navigation.clearance_mm=300"]
+    world = CORPUS / "worlds" / "foreign-colours.yaml"
+    assert _validate(path, capsys, *fixed, "--world", str(world)) == [
+        f"{world}:4:14: marks[1].colour: colour 'magenta' is not in the mission's palette "
+        "(blue, green, purple, yellow)",
+        f"{path}:3:17: route[1]: no green mark in the world {world}",
+    ]
+    assert main(["run", str(path), *fixed, "--world", str(world), "--max-time", "1"]) == 2
+    assert _errors(capsys.readouterr().err, "run") == [
+        f"{world}:4:14: marks[1].colour: colour 'magenta' is not in the mission's palette "
+        "(blue, green, purple, yellow)",
+        f"{path}:3:17: route[1]: no green mark in the world {world}",
+    ]
