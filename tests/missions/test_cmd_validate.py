@@ -87,7 +87,10 @@ def test_world_is_checked_against_the_mission(
     assert lines[0].startswith(
         f"{tmp_path / 'w.yaml'}:3:14: marks[1].colour: colour 'purple' is not in the mission's "
         "palette")
-    assert lines[1:] == ["marknav validate: 1 of 1 mission file invalid"]
+    # reported with it, not in a second round: the route's green has no mark either
+    assert lines[1:] == [
+        f"{mission}:2:14: route[1]: no green mark in the world {tmp_path / 'w.yaml'}",
+        "marknav validate: 1 of 1 mission file invalid"]
 
 
 def test_route_colour_without_a_mark_in_the_world(
