@@ -133,8 +133,9 @@ def _world_of_invalid_mission(
 
     def locate(loc: tuple[str | int, ...], message: str) -> InputError:
         pos = doc.position(loc)
-        field = ".".join(str(p) for p in loc) if not any(isinstance(p, int) for p in loc) else (
-            f"{loc[0]}[{loc[1]}]")
+        field = ""
+        for part in loc:
+            field += f"[{part}]" if isinstance(part, int) else ("." if field else "") + part
         return InputError(message, file=doc.path, line=pos.line if pos else None,
                           column=pos.column if pos else None, field=field)
 
