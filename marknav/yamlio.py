@@ -4,6 +4,12 @@ Missions and worlds are YAML validated by pydantic models. This module loads YAM
 *safe* loader only (so ``!!python/...`` tags are rejected), remembers where every key and value
 sits in the file, rejects duplicate keys, and turns pydantic's error locations back into
 ``FILE:LINE:COLUMN: field.path: message`` — with a did-you-mean for unknown keys.
+
+Files are read through :mod:`marknav.inputfile` (regular files only, at most
+:data:`~marknav.inputfile.MAX_YAML_BYTES`, no control characters), and the document is bounded
+before anything is built from it: nesting deeper than :data:`MAX_DEPTH` and more than
+:data:`MAX_NODES` nodes once aliases are expanded (an "alias bomb", or an alias inside its own
+anchor) are input errors at the line where the limit was crossed.
 """
 
 from __future__ import annotations
@@ -19,9 +25,37 @@ import yaml
 from pydantic import BaseModel, ValidationError
 
 from marknav.errors import InputError, InputErrors
+from marknav.inputfile import MAX_YAML_BYTES, check_no_control, read_text
 
 Loc = tuple[str | int, ...]
 M = TypeVar("M", bound=BaseModel)
+
+#: Deepest nesting of mappings and sequences accepted (a mission needs about 12, a tree ~40).
+MAX_DEPTH = 100
+#: Most nodes a document may expand to, counting every alias as a copy of its anchor.
+MAX_NODES = 100_000
+
+
+class _BoundedLoader(yaml.SafeLoader):
+    """The safe loader, refusing documents nested deeper than :data:`MAX_DEPTH` while it
+    composes them (PyYAML's composer recurses once per level: deep input would otherwise end in
+    a RecursionError)."""
+
+    def __init__(self, stream: str, path: str) -> None:
+        super().__init__(stream)
+        self._depth = 0
+        self._path = path
+
+    def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node | None:
+        self._depth += 1
+        try:
+            if self._depth > MAX_DEPTH:
+                mark = self.peek_event().start_mark
+                raise InputError(f"nested deeper than {MAX_DEPTH} levels", file=self._path,
+                                 line=mark.line + 1, column=mark.column + 1)
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
 
 
 @dataclass(frozen=True)
@@ -64,6 +98,14 @@ def _walk(
     key_positions: dict[Loc, Position],
     path: str,
 ) -> None:
+    if len(loc) > MAX_DEPTH:  # only an alias inside its own anchor gets here
+        p = _mark(node)
+        raise InputError(f"nested deeper than {MAX_DEPTH} levels (an alias inside its own "
+                         "anchor?)", file=path, line=p.line, column=p.column)
+    if len(positions) >= MAX_NODES:
+        p = _mark(node)
+        raise InputError(f"the document expands to more than {MAX_NODES} nodes (aliases "
+                         "repeating aliases?)", file=path, line=p.line, column=p.column)
     positions[loc] = _mark(node)
     if isinstance(node, yaml.MappingNode):
         seen: dict[Any, Position] = {}
@@ -86,7 +128,8 @@ def _walk(
 
 def load_yaml_text(text: str, path: str = "<string>") -> YamlDocument:
     """Parse ``text`` with the safe loader; raise :class:`InputError` with the line on failure."""
-    loader = yaml.SafeLoader(text)
+    check_no_control(text, path)
+    loader = _BoundedLoader(text, path)
     try:
         node = loader.get_single_node()
         if node is None:
@@ -116,15 +159,7 @@ def load_yaml_text(text: str, path: str = "<string>") -> YamlDocument:
 
 def load_yaml_file(path: str | Path) -> YamlDocument:
     """Read and parse a YAML file; a missing or unreadable file is an :class:`InputError`."""
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError("no such file", file=str(path)) from None
-    except IsADirectoryError:
-        raise InputError("is a directory, expected a YAML file", file=str(path)) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read: {exc}", file=str(path)) from None
+    text = read_text(path, limit=MAX_YAML_BYTES, what="a YAML file")
     return load_yaml_text(text, str(path))
 
 

@@ -36,6 +36,7 @@ import numpy.typing as npt
 
 from marknav.clock import Clock, MonotonicClock
 from marknav.errors import InputError
+from marknav.vision import imagefile
 
 log = logging.getLogger(__name__)
 
@@ -69,13 +70,9 @@ class FrameSource(Protocol):
 
 
 def read_image(path: str) -> Image:
-    """Read a BGR image; :class:`InputError` naming the file if it cannot."""
-    if not Path(path).is_file():
-        raise InputError("no such file", file=path)
-    image = cv2.imread(path, cv2.IMREAD_COLOR)
-    if image is None:
-        raise InputError("cannot read the image (missing, unreadable or not an image)", file=path)
-    return np.asarray(image, dtype=np.uint8)
+    """Read a BGR image; :class:`InputError` naming the file if it cannot (bounded: see
+    :mod:`marknav.vision.imagefile`)."""
+    return imagefile.read_image(path)
 
 
 class StillImageSource:
@@ -113,11 +110,12 @@ class ImageFolderSource:
         while self._next < len(self._paths):
             path = self._paths[self._next]
             self._next += 1
-            image = cv2.imread(path, cv2.IMREAD_COLOR)
-            if image is None:
-                log.warning("%s: skipping %s: not a readable image", self.name, path)
+            try:
+                image = imagefile.read_image(path)
+            except InputError as exc:
+                log.warning("%s: skipping %s", self.name, exc)
                 continue
-            return Frame(np.asarray(image, dtype=np.uint8), self._clock.now(), self._next)
+            return Frame(image, self._clock.now(), self._next)
         return None
 
     def close(self) -> None:
