@@ -28,6 +28,10 @@ def run(args: argparse.Namespace) -> int:
     from marknav.missions.run import build_mission_tree
     from marknav.missions.schema import load_mission
 
+    if args.dot is not None:
+        from marknav.outputs import check_output_file
+
+        check_output_file(args.dot, option="--dot")  # before the work, not after
     mission = load_mission(args.mission)
     root = build_mission_tree(mission)
     draw = py_trees.display.unicode_tree if args.unicode else py_trees.display.ascii_tree

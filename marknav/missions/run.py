@@ -223,10 +223,12 @@ def execute(req: RunRequest) -> RunResult:
         )
     except (InputError, KeyboardInterrupt) as exc:
         if env is None:  # the start failed: say why in the report and the log
-            why = (f"interrupted ({exc}) while starting" if isinstance(exc, KeyboardInterrupt)
-                   else f"did not start: {exc}")
+            why = (f"interrupted ({exc or 'SIGINT'}) while starting"
+                   if isinstance(exc, KeyboardInterrupt) else f"did not start: {exc}")
             report.outcome, report.reason = ABORTED, why
             events.write(0.0, "end", outcome=report.outcome, reason=why, ticks=0)
+        elif isinstance(exc, KeyboardInterrupt) and report.reason == "did not start":
+            report.reason = f"interrupted ({exc or 'SIGINT'})"  # before the loop began
         raise
     finally:
         with signals.deferred():
