@@ -113,7 +113,7 @@ def wait_for_status(events: Path, proc: subprocess.Popen[str], timeout: float = 
     assert proc.poll() is None, proc.communicate()
 
 
-# --- 1, 15: serve-robot ------------------------------------------------------------------------
+# --- 1, 15: serve-robot ---
 
 @pytest.fixture
 def bridge(robot: PtyServer) -> Iterator[Rfc2217Bridge]:
@@ -204,7 +204,7 @@ def test_15_random_bytes_cannot_take_over_an_oi_start_can(bridge: Rfc2217Bridge,
             assert bridge.client not in (None, owner)
 
 
-# --- 2, 3, 8: the serial robot: closed on every way out, exclusive, start-up reports ----------
+# --- 2, 3, 8: the serial robot: closed on every way out, exclusive, start-up reports ---
 
 def test_2_unwritable_events_with_a_serial_robot_exit_2_before_touching_it(
         robot: PtyServer, tmp_path: Path) -> None:
@@ -270,7 +270,7 @@ def test_8_a_start_up_failure_leaves_a_report_and_an_event_log(
     assert last["kind"] == "end" and last["reason"] == data["reason"]
 
 
-# --- 4, 5: a camera server that freezes ---------------------------------------------------------
+# --- 4, 5: a camera server that freezes ---
 
 @pytest.fixture
 def camera_server(tmp_path: Path) -> Iterator[tuple[subprocess.Popen[str], str]]:
@@ -329,7 +329,7 @@ def test_5_a_run_whose_camera_freezes_aborts_cleanly(
     assert_left_safe(robot)
 
 
-# --- 6, 7: signals -----------------------------------------------------------------------------
+# --- 6, 7: signals ---
 
 @pytest.mark.parametrize("second", [signal.SIGINT, signal.SIGTERM])
 def test_6_a_second_signal_cannot_lose_the_report(robot: PtyServer, tmp_path: Path,
@@ -446,7 +446,7 @@ def test_7_ctrl_c_while_opening_a_camera_that_never_answers(tmp_path: Path) -> N
     assert json.loads(report.read_text())["reason"] == "interrupted (SIGINT) while starting"
 
 
-# --- 10: YAML and every other input file ----------------------------------------------------------
+# --- 10: YAML and every other input file ---
 
 def _alias_bomb() -> str:
     lines = ["a0: &a0 [x, x, x, x, x, x, x, x, x]"]
@@ -492,7 +492,7 @@ def test_10_dev_zero_as_world_and_table(tmp_path: Path) -> None:
         assert "Traceback" not in proc.stderr
 
 
-# --- 11, 12: output paths ----------------------------------------------------------------------------
+# --- 11, 12: output paths ---
 
 @pytest.mark.parametrize("name", ["../../../tmp/i15-escape", "/tmp/i15-absolute", "a/b/c",
                                   "x" * 199 + "/"])
@@ -544,7 +544,7 @@ def test_12_dot_into_a_missing_folder(tmp_path: Path, capsys: pytest.CaptureFixt
     assert not (tmp_path / "no").exists()
 
 
-# --- 13: an image whose header lies -------------------------------------------------------------
+# --- 13: an image whose header lies ---
 
 def _png_claiming(width: int, height: int) -> bytes:
     def chunk(kind: bytes, data: bytes) -> bytes:
@@ -571,7 +571,7 @@ def test_13_an_image_claiming_a_huge_size_is_refused_before_decoding(
         assert f"{bomb}: PNG header claims {claim[0]} × {claim[1]} pixels" in err, argv
 
 
-# --- 14: calibration tables -------------------------------------------------------------------------
+# --- 14: calibration tables ---
 
 @pytest.mark.parametrize(("rows", "message"), [
     ("1," + "9" * 140_000 + "\n", ":2: line too long"),
