@@ -484,12 +484,15 @@ def test_10_hostile_yaml_files_exit_2_naming_file_and_line(tmp_path: Path) -> No
     assert "\x1b" not in err
 
 
-def test_10_dev_zero_as_world_and_table(tmp_path: Path) -> None:
-    for args in (["run", str(SLALOM), "--world", "/dev/zero"], ["calibrate", "/dev/zero"]):
-        proc = marknav(*args, cwd=tmp_path, timeout=60, mem_bytes=2 << 30)
-        assert proc.returncode == 2, proc.stderr
-        assert "/dev/zero: is a character device" in proc.stderr
-        assert "Traceback" not in proc.stderr
+def test_10_dev_zero_as_world_and_table(tmp_path: Path,
+                                       capsys: pytest.CaptureFixture[str]) -> None:
+    proc = marknav("run", str(SLALOM), "--world", "/dev/zero", cwd=tmp_path, timeout=60,
+                   mem_bytes=2 << 30)
+    assert proc.returncode == 2, proc.stderr
+    assert "/dev/zero: is a character device" in proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert main(["calibrate", "/dev/urandom"]) == 2  # refused before a byte is read
+    assert "/dev/urandom: is a character device" in capsys.readouterr().err
 
 
 # --- 11, 12: output paths ---

@@ -4,7 +4,7 @@ The property everywhere: the input is accepted, or refused with an :class:`Input
 from the CLI) — never another exception, never a traceback. Time and memory are bounded by the
 loaders' own limits (file size, YAML depth and expansion, header-claimed image size), which the
 generated inputs probe: deep nesting, alias chains, huge claimed sizes, long cells, control
-characters. CI runs few examples (``MARKNAV_FUZZ_EXAMPLES``, default 25 per test); set it higher
+characters. CI runs few examples (``MARKNAV_FUZZ_EXAMPLES``, default 20 per test); set it higher
 for a longer hunt, e.g. ``MARKNAV_FUZZ_EXAMPLES=2000 pytest tests/test_fuzz_loaders.py``.
 """
 
@@ -38,7 +38,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SLALOM = (ROOT / "missions" / "slalom.yaml").read_text(encoding="utf-8")
 WORLD = (ROOT / "missions" / "worlds" / "slalom-world.yaml").read_text(encoding="utf-8")
 
-FUZZ = settings(max_examples=int(os.environ.get("MARKNAV_FUZZ_EXAMPLES", "25")), deadline=None,
+FUZZ = settings(max_examples=int(os.environ.get("MARKNAV_FUZZ_EXAMPLES", "20")), deadline=None,
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 
 
