@@ -14,10 +14,12 @@ import contextlib
 import io
 import math
 import os
+import resource
 import struct
 import tempfile
 import zlib
 from collections.abc import Iterator
+from datetime import timedelta
 from pathlib import Path
 
 import cv2
@@ -38,8 +40,20 @@ ROOT = Path(__file__).resolve().parents[1]
 SLALOM = (ROOT / "missions" / "slalom.yaml").read_text(encoding="utf-8")
 WORLD = (ROOT / "missions" / "worlds" / "slalom-world.yaml").read_text(encoding="utf-8")
 
-FUZZ = settings(max_examples=int(os.environ.get("MARKNAV_FUZZ_EXAMPLES", "20")), deadline=None,
+#: Generous bounds (the worst input takes well under a second): an example that needs 20 s, or a
+#: test whose examples grow the process by 256 MiB, means a limit is missing.
+FUZZ = settings(max_examples=int(os.environ.get("MARKNAV_FUZZ_EXAMPLES", "20")),
+                deadline=timedelta(seconds=20),
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+MAX_GROWTH_KIB = 256 * 1024
+
+
+@pytest.fixture(autouse=True)
+def bounded_memory() -> Iterator[None]:
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB on Linux
+    yield
+    grown = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before
+    assert grown < MAX_GROWTH_KIB, f"peak memory grew by {grown / 1024:.0f} MiB"
 
 
 @contextlib.contextmanager
