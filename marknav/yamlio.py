@@ -15,6 +15,7 @@ anchor) are input errors at the line where the limit was crossed.
 from __future__ import annotations
 
 import difflib
+import re
 import types
 import typing
 from dataclasses import dataclass
@@ -34,6 +35,12 @@ M = TypeVar("M", bound=BaseModel)
 MAX_DEPTH = 100
 #: Most nodes a document may expand to, counting every alias as a copy of its anchor.
 MAX_NODES = 100_000
+
+
+# A double-quoted scalar can spell control characters as escapes ("\e", "\0", "\x1b"): they
+# would reach the terminal and file names. Values may hold TAB and line breaks; keys may not.
+_ESCAPED_CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f\u2028\u2029]")
+_KEY_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]")
 
 
 class _BoundedLoader(yaml.SafeLoader):
@@ -107,6 +114,13 @@ def _walk(
         raise InputError(f"the document expands to more than {MAX_NODES} nodes (aliases "
                          "repeating aliases?)", file=path, line=p.line, column=p.column)
     positions[loc] = _mark(node)
+    if isinstance(node, yaml.ScalarNode) and _ESCAPED_CONTROL.search(node.value):
+        p = _mark(node)
+        bad = _ESCAPED_CONTROL.search(node.value)
+        assert bad is not None
+        raise InputError(f"control character U+{ord(bad.group()):04X} in a string (written as "
+                         "an escape); use printable characters", file=path, line=p.line,
+                         column=p.column, field=_fmt(loc) or None)
     if isinstance(node, yaml.MappingNode):
         seen: dict[Any, Position] = {}
         for key_node, value_node in node.value:
@@ -118,6 +132,10 @@ def _walk(
                     f"duplicate key {key!r} (first at line {seen[key].line})",
                     file=path, line=p.line, column=p.column, field=_fmt(child),
                 )
+            if isinstance(key, str) and _KEY_CONTROL.search(key):
+                p = _mark(key_node)
+                raise InputError(f"control character in the key {key!r}", file=path,
+                                 line=p.line, column=p.column, field=_fmt(loc) or None)
             seen[key] = _mark(key_node)
             key_positions[child] = _mark(key_node)
             _walk(value_node, child, positions, key_positions, path)

@@ -519,8 +519,8 @@ def test_11_control_characters_in_names_are_refused_and_never_printed(
     mission = mission_named(tmp_path, name)
     assert main(["validate", str(mission)]) == 2
     err = capsys.readouterr().err
-    assert re.search(re.escape(str(mission)) + r":\d+:7: name: the name contains the control "
-                     r"character U\+00", err), err
+    assert re.search(re.escape(str(mission)) + r":\d+:7: name: .*control character U\+00",
+                     err), err
     assert not any(c in err for c in "\x00\x1b")
 
 
