@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+import yaml
 
 from marknav.cli import main
 from marknav.clock import MonotonicClock
@@ -86,6 +87,18 @@ def mission_named(tmp_path: Path, name: str, file: str = "m.yaml") -> Path:
     text = "\n".join(lines).replace("world: worlds/", f"world: {SLALOM.parent}/worlds/")
     path = tmp_path / file
     path.write_text(text + "\n", encoding="utf-8")
+    return path
+
+
+def hardware_mission(tmp_path: Path) -> Path:
+    """The slalom with watchdogs loose enough for a loaded CI machine (these tests are about
+    files and signals; the watchdogs have their own tests)."""
+    data = yaml.safe_load(SLALOM.read_text(encoding="utf-8"))
+    data["safety"] = {**data.get("safety", {}), "sensor_timeout_s": 2.0,
+                      "command_timeout_s": 2.0}
+    data.pop("sim", None)
+    path = tmp_path / "hw.yaml"
+    path.write_text(yaml.safe_dump(data), encoding="utf-8")
     return path
 
 
@@ -219,7 +232,8 @@ def test_2_unwritable_events_with_a_serial_robot_exit_2_before_touching_it(
 def test_2_12_events_on_a_full_disk_the_robot_is_still_left_safe(robot: PtyServer,
                                                                  tmp_path: Path) -> None:
     report = tmp_path / "r.json"
-    proc = marknav("run", str(SLALOM), "--robot", robot.path, "--camera", str(IMAGE),
+    proc = marknav("run", str(hardware_mission(tmp_path)), "--robot", robot.path, "--camera",
+                   str(IMAGE),
                    "--events", "/dev/full", "--report", str(report), "--max-time", "1",
                    "--tree", "none", cwd=tmp_path)
     assert proc.returncode == 2, proc.stderr
@@ -303,8 +317,8 @@ def test_4_reads_of_a_frozen_stream_never_wait(
             frames += src.read() is not None
             reads += 1
             time.sleep(0.05)  # a 20 Hz control cycle
-        # a read that waited 1 s for a frame (the old behaviour) allows 2 cycles here, not 40
-        assert reads >= 20
+        # a read that waited 1 s for a frame (the old behaviour) allows 2 cycles here, not ~40
+        assert reads >= 10
         assert frames <= 1
         os.kill(server.pid, signal.SIGCONT)
         assert wait_until(lambda: src.read() is not None, 10)  # reconnects when it comes back
@@ -318,7 +332,8 @@ def test_5_a_run_whose_camera_freezes_aborts_cleanly(
         tmp_path: Path) -> None:
     server, url = camera_server
     report = tmp_path / "r.json"
-    proc = spawn("run", str(SLALOM), "--robot", robot.path, "--camera", url, "--report",
+    proc = spawn("run", str(hardware_mission(tmp_path)), "--robot", robot.path, "--camera", url,
+                 "--report",
                  str(report), "--tree", "none", cwd=tmp_path)
     wait_for_status(tmp_path / "r.events.jsonl", proc)
     os.kill(server.pid, signal.SIGSTOP)
@@ -335,7 +350,8 @@ def test_5_a_run_whose_camera_freezes_aborts_cleanly(
 def test_6_a_second_signal_cannot_lose_the_report(robot: PtyServer, tmp_path: Path,
                                                   second: int) -> None:
     report = tmp_path / "r.json"
-    proc = spawn("run", str(SLALOM), "--robot", robot.path, "--camera", str(IMAGE),
+    proc = spawn("run", str(hardware_mission(tmp_path)), "--robot", robot.path, "--camera",
+                 str(IMAGE),
                  "--report", str(report), "--tree", "none", cwd=tmp_path)
     wait_for_status(tmp_path / "r.events.jsonl", proc)
     proc.send_signal(signal.SIGINT)
@@ -397,15 +413,18 @@ def test_7_sigterm_outside_the_loop_still_writes_everything(
         target: str, after: bool, reason: str) -> None:
     _run_with_injected_signal(monkeypatch, target, signal.SIGTERM, after)
     report, plot = tmp_path / "r.json", tmp_path / "p.png"
+    plotting = ["--plot", str(plot)] if target == "_plot" else []
     code = main(["run", str(SLALOM), "--max-time", "1", "--tree", "none", "--report",
-                 str(report), "--plot", str(plot)])
+                 str(report), *plotting])
     err = capsys.readouterr().err
     assert code == 130, err
     assert f"report: {report}" in err
     data = json.loads(report.read_text())
     assert data["reason"] == reason
     assert data["sim_final"]["wheels_mm_s"] == [0, 0]
-    assert plot.stat().st_size > 0 and (tmp_path / "r.events.jsonl").exists()
+    assert (tmp_path / "r.events.jsonl").exists()
+    if plotting:
+        assert plot.stat().st_size > 0
 
 
 def test_7_sigint_while_loading_names_no_report(monkeypatch: pytest.MonkeyPatch,
@@ -439,8 +458,9 @@ def test_7_ctrl_c_while_opening_a_camera_that_never_answers(tmp_path: Path) -> N
         conn, _ = listener.accept()  # it asked; it gets no answer
         with conn:
             proc.send_signal(signal.SIGINT)
-            # honoured at once: well before the 5 s connect timeout would give exit 2
-            code, _out, err = finish(proc, 4.5)
+            # honoured: an ignored Ctrl-C ends as exit 2 when the 5 s connect timeout fires, one
+            # honoured only when OpenCV's open returns (the old way) after ~30 s
+            code, _out, err = finish(proc, 15)
     assert code == 130, err
     assert "Traceback" not in err
     assert json.loads(report.read_text())["reason"] == "interrupted (SIGINT) while starting"
