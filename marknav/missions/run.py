@@ -239,7 +239,9 @@ def execute(req: RunRequest) -> RunResult:
 
 def _finish(req: RunRequest, mission: Mission, env: Environment | None,
             result: RunResult | None, report: RunReport, events: EventLog) -> None:
-    """Close the environment, complete and write the report and the log, draw the plot."""
+    """Close the environment, complete and write the report and the log, draw the plot.
+    An exception from the ground truth (a bug) is raised again once the files are written."""
+    failure: Exception | None = None
     try:
         if env is not None:
             env.close()
@@ -248,8 +250,8 @@ def _finish(req: RunRequest, mission: Mission, env: Environment | None,
             result.plans = recorded_plans()
             try:
                 _fill_ground_truth(mission, env, report)
-            except Exception:
-                log.exception("collecting the ground truth failed")
+            except Exception as exc:
+                failure = exc
         events.close()
         if events.path is not None:
             if events.error is None:
@@ -272,6 +274,8 @@ def _finish(req: RunRequest, mission: Mission, env: Environment | None,
             except OSError as exc:
                 req.write_errors.append(f"cannot write the plot {req.plot_path}: "
                                         f"{exc.strerror or exc}")
+        if failure is not None:
+            raise failure
 
 
 def _classify(root: py_trees.behaviour.Behaviour) -> tuple[bool, str]:
