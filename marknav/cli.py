@@ -58,6 +58,21 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    from marknav import signals
+
+    signals.install()  # first: a signal while importing the commands is already handled
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:  # before a command started (importing, parsing)
+        print("marknav: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    finally:
+        signals.uninstall()
+
+
+def _main(argv: Sequence[str] | None) -> int:
+    from marknav.outputs import printable
+
     parser = build_parser()
     args = parser.parse_args(argv)
     logging.basicConfig(
@@ -69,11 +84,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_BAD_INPUT
     try:
         return int(args.func(args))
-    except InputError as exc:
-        print(f"marknav {args.command}: error: {exc}", file=sys.stderr)
+    except InputError as exc:  # control characters from the input are shown escaped
+        text = "\n".join(printable(line) for line in str(exc).split("\n"))
+        print(f"marknav {args.command}: error: {text}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except MarknavError as exc:
-        print(f"marknav {args.command}: {exc}", file=sys.stderr)
+        text = "\n".join(printable(line) for line in str(exc).split("\n"))
+        print(f"marknav {args.command}: {text}", file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:
         print(f"marknav {args.command}: interrupted", file=sys.stderr)

@@ -4,11 +4,18 @@ Missions and worlds are YAML validated by pydantic models. This module loads YAM
 *safe* loader only (so ``!!python/...`` tags are rejected), remembers where every key and value
 sits in the file, rejects duplicate keys, and turns pydantic's error locations back into
 ``FILE:LINE:COLUMN: field.path: message`` — with a did-you-mean for unknown keys.
+
+Files are read through :mod:`marknav.inputfile` (regular files only, at most
+:data:`~marknav.inputfile.MAX_YAML_BYTES`, no control characters), and the document is bounded
+before anything is built from it: nesting deeper than :data:`MAX_DEPTH` and more than
+:data:`MAX_NODES` nodes once aliases are expanded (an "alias bomb", or an alias inside its own
+anchor) are input errors at the line where the limit was crossed.
 """
 
 from __future__ import annotations
 
 import difflib
+import re
 import types
 import typing
 from dataclasses import dataclass
@@ -19,9 +26,43 @@ import yaml
 from pydantic import BaseModel, ValidationError
 
 from marknav.errors import InputError, InputErrors
+from marknav.inputfile import MAX_YAML_BYTES, check_no_control, read_text
 
 Loc = tuple[str | int, ...]
 M = TypeVar("M", bound=BaseModel)
+
+#: Deepest nesting of mappings and sequences accepted (a mission needs about 12, a tree ~40).
+MAX_DEPTH = 100
+#: Most nodes a document may expand to, counting every alias as a copy of its anchor.
+MAX_NODES = 100_000
+
+
+# A double-quoted scalar can spell control characters as escapes ("\e", "\0", "\x1b"): they
+# would reach the terminal and file names. Values may hold TAB and line breaks; keys may not.
+_ESCAPED_CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f\u2028\u2029]")
+_KEY_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]")
+
+
+class _BoundedLoader(yaml.SafeLoader):
+    """The safe loader, refusing documents nested deeper than :data:`MAX_DEPTH` while it
+    composes them (PyYAML's composer recurses once per level: deep input would otherwise end in
+    a RecursionError)."""
+
+    def __init__(self, stream: str, path: str) -> None:
+        super().__init__(stream)
+        self._depth = 0
+        self._path = path
+
+    def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node | None:
+        self._depth += 1
+        try:
+            if self._depth > MAX_DEPTH:
+                mark = self.peek_event().start_mark
+                raise InputError(f"nested deeper than {MAX_DEPTH} levels", file=self._path,
+                                 line=mark.line + 1, column=mark.column + 1)
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
 
 
 @dataclass(frozen=True)
@@ -64,7 +105,22 @@ def _walk(
     key_positions: dict[Loc, Position],
     path: str,
 ) -> None:
+    if len(loc) > MAX_DEPTH:  # only an alias inside its own anchor gets here
+        p = _mark(node)
+        raise InputError(f"nested deeper than {MAX_DEPTH} levels (an alias inside its own "
+                         "anchor?)", file=path, line=p.line, column=p.column)
+    if len(positions) >= MAX_NODES:
+        p = _mark(node)
+        raise InputError(f"the document expands to more than {MAX_NODES} nodes (aliases "
+                         "repeating aliases?)", file=path, line=p.line, column=p.column)
     positions[loc] = _mark(node)
+    if isinstance(node, yaml.ScalarNode) and _ESCAPED_CONTROL.search(node.value):
+        p = _mark(node)
+        bad = _ESCAPED_CONTROL.search(node.value)
+        assert bad is not None
+        raise InputError(f"control character U+{ord(bad.group()):04X} in a string (written as "
+                         "an escape); use printable characters", file=path, line=p.line,
+                         column=p.column, field=_fmt(loc) or None)
     if isinstance(node, yaml.MappingNode):
         seen: dict[Any, Position] = {}
         for key_node, value_node in node.value:
@@ -76,6 +132,10 @@ def _walk(
                     f"duplicate key {key!r} (first at line {seen[key].line})",
                     file=path, line=p.line, column=p.column, field=_fmt(child),
                 )
+            if isinstance(key, str) and _KEY_CONTROL.search(key):
+                p = _mark(key_node)
+                raise InputError(f"control character in the key {key!r}", file=path,
+                                 line=p.line, column=p.column, field=_fmt(loc) or None)
             seen[key] = _mark(key_node)
             key_positions[child] = _mark(key_node)
             _walk(value_node, child, positions, key_positions, path)
@@ -86,7 +146,8 @@ def _walk(
 
 def load_yaml_text(text: str, path: str = "<string>") -> YamlDocument:
     """Parse ``text`` with the safe loader; raise :class:`InputError` with the line on failure."""
-    loader = yaml.SafeLoader(text)
+    check_no_control(text, path)
+    loader = _BoundedLoader(text, path)
     try:
         node = loader.get_single_node()
         if node is None:
@@ -116,15 +177,7 @@ def load_yaml_text(text: str, path: str = "<string>") -> YamlDocument:
 
 def load_yaml_file(path: str | Path) -> YamlDocument:
     """Read and parse a YAML file; a missing or unreadable file is an :class:`InputError`."""
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError("no such file", file=str(path)) from None
-    except IsADirectoryError:
-        raise InputError("is a directory, expected a YAML file", file=str(path)) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read: {exc}", file=str(path)) from None
+    text = read_text(path, limit=MAX_YAML_BYTES, what="a YAML file")
     return load_yaml_text(text, str(path))
 
 

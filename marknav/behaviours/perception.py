@@ -112,6 +112,14 @@ class PerceptionBase(MarknavBehaviour):
             if silent > self.camera_timeout_s:
                 return self.fail(f"camera lost: no frame for {silent:.1f} s "
                                  f"(limit {self.camera_timeout_s:g} s)")
+            hold = self.mission.navigation.lost_after_s if self.mission is not None else None
+            if hold is not None and silent > hold:
+                # Old frames cannot say a target is lost: without this, a stalled camera made
+                # the route start a search turn, blind. RUNNING stops the rest of the tree (its
+                # drivers stop the wheels) until frames come back or the camera is lost.
+                self.feedback_message = (f"holding: no new frame for {silent:.2f} s "
+                                         f"(camera lost after {self.camera_timeout_s:g} s)")
+                return Status.RUNNING
             self.feedback_message = f"no new frame for {silent:.2f} s"
             return Status.SUCCESS
         self._last_frame_t = now

@@ -8,18 +8,25 @@ flow control, purge) is pyserial's :class:`serial.rfc2217.PortManager`; this mod
 bytes, escapes the telnet IAC byte (255 → 255 255, RFC 854) in robot→client data, and adds what a
 robot needs from a serial bridge:
 
-- **One client at a time.** Two programs writing OI commands into one robot interleave bytes; a
-  new connection *takes over* (the previous one is closed and the robot stopped first), so a
-  control computer whose Wi-Fi dropped can reconnect at once instead of waiting for the dead
-  connection to time out.
+- **One client at a time.** Two programs writing OI commands into one robot interleave bytes. A
+  new connection while a client drives the robot *waits*: it may negotiate its line settings
+  (kept aside, not applied), but it takes over (the previous client closed, the robot stopped
+  first) only when its first OI byte is Start (128) — what every OI program sends first. A
+  control computer whose Wi-Fi dropped reconnects at once; a port scan, a stray telnet or 64
+  random bytes are closed without touching the running mission (no OI Start within
+  ``TAKEOVER_WAIT_S``, or another first byte: takeover refused). At most ``MAX_WAITING``
+  connections wait at a time.
 - **Stop on silence.** OI spec, "Drive Direct": the robot keeps the last wheel command forever;
   nothing in it stops a command that is never followed by another. The driver's safety layer
   (the command watchdog) cannot help when the network itself is gone. So when the client
   disconnects, or sends nothing for ``idle_stop_s`` (default 1 s; marknav's driver sends a
   wheel command every control cycle while driving), the bridge writes Drive Direct (145) with
-  both wheels at 0. It tracks the client's OI command framing
-  (:func:`marknav.drivers.oi.command_length`) so the stop never lands inside a half-received
-  command; a command left half-written by a vanished client is completed with zero data bytes.
+  both wheels at 0. Silence is measured from the last byte received, whatever was received: a
+  client that stops in the middle of a command is silent too. The bridge tracks the client's
+  OI command framing (:func:`marknav.drivers.oi.command_length`) so the stop never lands inside
+  a half-received command: a half-written command is first completed with zero data bytes.
+- **Bounded telnet input.** A telnet sub-option (IAC SB …) longer than ``MAX_SUBOPTION`` bytes
+  without its IAC SE, or telnet data pyserial cannot parse, closes the client.
 - **Dead peers** are found by TCP keepalive (5 s idle, 2 s interval, 3 probes, where the OS
   allows) as well as by the silence stop.
 - Devices without modem lines (a pseudo-terminal) answer CTS/DSR/CD asserted and RI clear, and
@@ -32,6 +39,7 @@ import argparse
 import contextlib
 import errno
 import logging
+import math
 import signal
 import socket
 import sys
@@ -57,6 +65,12 @@ _READ_TIMEOUT_S = 0.01
 _ACCEPT_POLL_S = 0.1
 _RECV_POLL_S = 0.05
 _MODEM_POLL_S = 1.0
+#: A waiting connection must send OI Start (128) within this many seconds to take over.
+TAKEOVER_WAIT_S = 5.0
+#: Connections that may wait to take over at once (more are closed at once).
+MAX_WAITING = 2
+#: Longest telnet sub-option accepted (RFC 2217's are at most a few bytes; pyserial buffers them).
+MAX_SUBOPTION = 64
 
 
 class OIFramer:
@@ -130,17 +144,55 @@ class _ModemLines:
             log.debug("serial port has no %s line: %s", name, exc)
 
 
-class _Session:
-    """One RFC 2217 client: a network→serial thread and a serial→network thread."""
+class _ShadowPort:
+    """The serial port as a *waiting* client's PortManager sees it: the line settings it asks
+    for are recorded (:attr:`changes`) and applied to the real port only when it takes over."""
 
-    def __init__(self, bridge: Rfc2217Bridge, conn: socket.socket, peer: str) -> None:
+    _SETTINGS = ("baudrate", "bytesize", "parity", "stopbits", "rtscts", "xonxoff")
+    changes: dict[str, Any]
+
+    def __init__(self, port: Any) -> None:
+        object.__setattr__(self, "changes", {})
+        for name in self._SETTINGS:
+            object.__setattr__(self, name, getattr(port, name, None))
+        for name, value in (("cts", True), ("dsr", True), ("cd", True), ("ri", False),
+                            ("rts", True), ("dtr", True), ("break_condition", False)):
+            object.__setattr__(self, name, value)
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        object.__setattr__(self, name, value)
+        if name in self._SETTINGS:
+            self.changes[name] = value
+
+    def reset_input_buffer(self) -> None:
+        pass
+
+    def reset_output_buffer(self) -> None:
+        pass
+
+
+class _Session:
+    """One RFC 2217 client: a network→serial thread and a serial→network thread.
+
+    An *active* session owns the robot; a waiting one (``active=False``) only negotiates telnet
+    until its first OI byte, which must be Start (128) for it to take over.
+    """
+
+    def __init__(self, bridge: Rfc2217Bridge, conn: socket.socket, peer: str, *,
+                 active: bool = True) -> None:
         self.bridge = bridge
         self.conn = conn
         self.peer = peer
         self.framer = OIFramer(bridge.model)
         self._send_lock = threading.Lock()
         self._stop = threading.Event()
-        self.manager = serial.rfc2217.PortManager(_ModemLines(bridge.port), self)
+        self.active = threading.Event()
+        if active:
+            self.active.set()
+        self.shadow = None if active else _ShadowPort(bridge.port)
+        port: Any = _ModemLines(bridge.port) if active else self.shadow
+        self.started = time.monotonic()
+        self.manager = serial.rfc2217.PortManager(port, self)
         self._threads = [
             threading.Thread(target=self._net_to_serial, name="rfc2217-in", daemon=True),
             threading.Thread(target=self._serial_to_net, name="rfc2217-out", daemon=True),
@@ -186,18 +238,41 @@ class _Session:
                     break
                 now = time.monotonic()
                 if data is None:
+                    if not self.active.is_set():
+                        if now - self.started > TAKEOVER_WAIT_S:
+                            why = (f"no OI Start (128) within {TAKEOVER_WAIT_S:g} s while "
+                                   f"{bridge.client} drives the robot: takeover refused")
+                            break
+                        continue
                     idle = bridge.idle_stop_s
-                    if (idle and not idle_stopped and now - last_rx >= idle
-                            and self.framer.at_boundary):
+                    if idle and not idle_stopped and now - last_rx >= idle:
+                        # from the last byte, whatever it was: complete a half command first
                         idle_stopped = True
-                        bridge.stop_robot(f"client {self.peer} silent for {idle:g} s",
-                                          level=logging.INFO)
+                        pad = self.framer.completion()
+                        if pad:
+                            bridge.write_serial(pad)
+                        bridge.stop_robot(f"client {self.peer} silent for {idle:g} s")
                     continue
                 if not data:
                     break
                 last_rx = now
                 idle_stopped = False
-                payload = b"".join(self.manager.filter(data))
+                try:
+                    payload = b"".join(self.manager.filter(data))
+                except Exception as exc:  # pyserial's parser on malformed telnet
+                    why = f"malformed telnet data ({type(exc).__name__}: {exc})"
+                    break
+                if len(self.manager.suboption or b"") > MAX_SUBOPTION:
+                    why = f"telnet sub-option longer than {MAX_SUBOPTION} bytes"
+                    break
+                if payload and not self.active.is_set():
+                    if payload[0] != oi.Opcode.START:
+                        why = (f"first OI byte {payload[0]} is not Start (128) while "
+                               f"{bridge.client} drives the robot: takeover refused")
+                        break
+                    if not bridge.promote(self):
+                        why = "bridge stopping"
+                        break
                 if payload:
                     self.framer.feed(payload)
                     if not bridge.write_serial(payload):
@@ -210,10 +285,13 @@ class _Session:
             why = "internal error"
         finally:
             self._stop.set()
-            pad = self.framer.completion()
-            if pad:
-                bridge.write_serial(pad)
-            bridge.stop_robot(f"{why} ({self.peer})")
+            if self.active.is_set():
+                pad = self.framer.completion()
+                if pad:
+                    bridge.write_serial(pad)
+                bridge.stop_robot(f"{why} ({self.peer})")
+            else:
+                log.warning("closing client %s: %s", self.peer, why)
             with contextlib.suppress(OSError):
                 self.conn.shutdown(socket.SHUT_RDWR)
             self.ended.set()
@@ -221,6 +299,8 @@ class _Session:
     def _serial_to_net(self) -> None:
         bridge = self.bridge
         next_modem = 0.0
+        while not self._stop.is_set() and not self.active.wait(_RECV_POLL_S):
+            pass  # a waiting client gets nothing from the robot
         try:
             while not self._stop.is_set():
                 data = bridge.read_serial()
@@ -275,8 +355,8 @@ class Rfc2217Bridge:
                  idle_stop_s: float | None = 1.0, name: str = "") -> None:
         if not 0 <= tcp_port <= 65535:
             raise InputError(f"must be in 0..65535, got {tcp_port}", field="--port")
-        if idle_stop_s is not None and idle_stop_s < 0:
-            raise ValueError(f"idle_stop_s must be >= 0, got {idle_stop_s}")
+        if idle_stop_s is not None and not 0 <= idle_stop_s < math.inf:
+            raise ValueError(f"idle_stop_s must be a number >= 0, got {idle_stop_s}")
         self.port = port
         self.model = Model.parse(model)
         self.host = host
@@ -298,6 +378,8 @@ class Rfc2217Bridge:
         self._serial_lock = threading.Lock()
         self._stop = threading.Event()
         self._session: _Session | None = None
+        self._waiting: list[_Session] = []
+        self._take_lock = threading.RLock()
         self._thread: threading.Thread | None = None
         self.device_error: str | None = None
         self.clients_served = 0
@@ -384,9 +466,6 @@ class Rfc2217Bridge:
             self._device_failed(f"serial device failed: {exc}")
 
     def _take(self, conn: socket.socket, peer: str) -> None:
-        if self.client is not None:
-            log.warning("client %s takes over the robot from %s", peer, self.client)
-        self._end_session(f"taken over by {peer}")
         try:
             _keepalive(conn)
             conn.settimeout(_RECV_POLL_S)
@@ -394,16 +473,61 @@ class Rfc2217Bridge:
             log.info("client %s: %s", peer, exc)
             conn.close()
             return
-        with self._serial_lock, contextlib.suppress(*LINK_ERRORS):
-            self.port.reset_input_buffer()
-        session = _Session(self, conn, peer)
-        self._session = session
-        self.clients_served += 1
-        log.info("client %s connected", peer)
-        session.start()
+        with self._take_lock:
+            if self.client is not None:
+                self._waiting = [s for s in self._waiting if not s.ended.is_set()]
+                if len(self._waiting) >= MAX_WAITING:
+                    log.warning("client %s refused: %d connections already wait to take over "
+                                "from %s", peer, len(self._waiting), self.client)
+                    with contextlib.suppress(OSError):
+                        conn.close()
+                    return
+                log.warning("client %s connected while %s drives the robot: it takes over "
+                            "when it sends OI Start (128)", peer, self.client)
+                waiting = _Session(self, conn, peer, active=False)
+                self._waiting.append(waiting)
+                waiting.start()
+                return
+            self._end_session("a new client")
+            with self._serial_lock, contextlib.suppress(*LINK_ERRORS):
+                self.port.reset_input_buffer()
+            session = _Session(self, conn, peer)
+            self._session = session
+            self.clients_served += 1
+            log.info("client %s connected", peer)
+            session.start()
+
+    def promote(self, session: _Session) -> bool:
+        """A waiting ``session`` sent OI Start: it takes over (the previous client is closed and
+        the robot stopped first; the line settings it negotiated are applied). False if the
+        bridge is stopping."""
+        with self._take_lock:
+            if self._stop.is_set():
+                return False
+            if self.client is not None:
+                log.warning("client %s takes over the robot from %s", session.peer, self.client)
+            self._end_session(f"taken over by {session.peer}")
+            if session in self._waiting:
+                self._waiting.remove(session)
+            lines = _ModemLines(self.port)
+            changes = session.shadow.changes if session.shadow is not None else {}
+            for name, value in changes.items():
+                try:
+                    setattr(lines, name, value)
+                except (serial.SerialException, OSError, ValueError) as exc:
+                    log.warning("client %s: cannot set %s=%r: %s", session.peer, name, value,
+                                exc)
+            session.manager.serial = lines
+            with self._serial_lock, contextlib.suppress(*LINK_ERRORS):
+                self.port.reset_input_buffer()
+            self._session = session
+            self.clients_served += 1
+            session.active.set()
+            return True
 
     def _end_session(self, reason: str) -> None:
-        session, self._session = self._session, None
+        with self._take_lock:
+            session, self._session = self._session, None
         if session is not None:
             session.close(reason)
 
@@ -427,6 +551,10 @@ class Rfc2217Bridge:
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout=3.0)
         self._end_session("bridge stopping")
+        with self._take_lock:
+            waiting, self._waiting = self._waiting, []
+        for session in waiting:
+            session.close("bridge stopping")
         with contextlib.suppress(OSError):
             self._listener.close()
 
@@ -445,8 +573,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         help="serve the Create's serial port over the network (RFC 2217)",
         description="Make the robot's serial port (USB or Bluetooth) reachable from another "
         "computer as rfc2217://HOST:PORT, for 'marknav run --robot rfc2217://HOST:PORT'. "
-        "One client at a time (a new one takes over); the wheels are stopped when the client "
-        "disconnects or goes silent.",
+        "One client at a time: a new one takes over when it sends OI Start (128); the wheels "
+        "are stopped when the client disconnects or goes silent.",
     )
     where = p.add_mutually_exclusive_group(required=True)
     where.add_argument("--device", metavar="PATH",
@@ -481,10 +609,13 @@ def _is_loopback(host: str) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     model = Model.parse(args.model)
-    if args.idle_stop < 0 or args.idle_stop > 60:
+    if not 0 <= args.idle_stop <= 60:  # also refuses nan
         raise InputError(f"must be in [0, 60], got {args.idle_stop:g}", field="--idle-stop")
-    if args.baud is not None and args.baud <= 0:
-        raise InputError(f"must be positive, got {args.baud}", field="--baud")
+    if args.baud is not None and args.baud not in oi.BAUD_CODES:
+        raise InputError(f"not a rate the Open Interface has: {args.baud} (one of "
+                         f"{', '.join(str(r) for r in sorted(oi.BAUD_CODES))})", field="--baud")
+    if not 0 <= args.port <= 65535:
+        raise InputError(f"must be in 0..65535, got {args.port}", field="--port")
     baud = args.baud or model.default_baudrate
     if args.sim:
         from marknav.sim import protocol_createsim

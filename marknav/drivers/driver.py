@@ -182,9 +182,18 @@ class CreateDriver:
 
         Raises :class:`InputError` naming the port if it cannot be opened or no good stream frame
         arrives within ``first_frame_timeout_s`` (wrong port, baud rate or model; robot off).
+        Whatever ends it early (an error, Ctrl-C) closes the driver first: the robot is not
+        left in Safe mode with its stream on.
         """
         if self._port is not None or self._closed:
             raise RuntimeError("a CreateDriver connects once; make a new one to reconnect")
+        try:
+            return self._connect()
+        except BaseException:
+            self.close()
+            raise
+
+    def _connect(self) -> CreateDriver:
         port = self._open_port(self.port_url, baudrate=self.baudrate)
         self._port = port
         try:

@@ -6,6 +6,11 @@ Everything goes through :func:`serial.serial_for_url`, so device paths (``/dev/t
 flow control (OI spec "Serial Port Settings"): software flow control would eat 0x11/0x13, which
 occur in sensor data, so XON/XOFF, RTS/CTS and DSR/DTR are all off. Linux serial devices are
 asked for low-latency mode where the driver supports it.
+
+A device path is opened *exclusively* (pyserial's ``exclusive=True``: an advisory ``flock`` on
+POSIX): a second marknav — or anything else that asks for the same lock — on the same robot is
+refused with "port busy" instead of stealing bytes from the sensor stream, which the first one
+would see as garbled frames and a lost link.
 """
 
 from __future__ import annotations
@@ -58,6 +63,9 @@ def open_port(
     register_url_schemes()
     if url.lower().startswith("rfc2217://"):
         write_timeout = None  # pyserial's RFC 2217 client raises NotImplementedError for one
+    extra: dict[str, bool] = {}
+    if is_device_path(url):
+        extra["exclusive"] = True
     try:
         port = serial.serial_for_url(
             url,
@@ -70,12 +78,21 @@ def open_port(
             dsrdtr=False,
             timeout=timeout,
             write_timeout=write_timeout,
+            **extra,
         )
     except (serial.SerialException, OSError, ValueError, NotImplementedError) as exc:
+        if "exclusively lock" in str(exc):
+            raise InputError(f"port busy: another program has it open ({exc})",
+                             file=url) from exc
         raise InputError(f"cannot open serial port: {exc}", file=url) from exc
     _try_low_latency(port, url)
     log.info("opened %s at %d baud", url, baudrate)
     return port
+
+
+def is_device_path(url: str) -> bool:
+    """A device (``/dev/ttyUSB0``, ``COM3``), not a pyserial URL (``socket://…``)."""
+    return "://" not in url
 
 
 def _try_low_latency(port: object, url: str) -> None:

@@ -51,21 +51,40 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.set_defaults(func=run)
 
 
+def check_outputs(args: argparse.Namespace) -> None:
+    """Every output path the user gave is writable, before anything starts (exit 2)."""
+    from marknav.outputs import check_output_file
+
+    for option, path in (("--report", args.report), ("--events", args.events),
+                         ("--plot", args.plot)):
+        if path is not None:
+            check_output_file(path, option=option)
+    if args.plot is not None and args.robot != "sim":
+        raise InputError("--plot draws the simulator's ground truth; it needs --robot sim",
+                         field="--plot")
+
+
 def run(args: argparse.Namespace) -> int:
     from marknav.missions.checks import checked_mission
     from marknav.missions.overrides import parse_overrides
     from marknav.missions.run import RunRequest, default_run_dir, execute, summary
+    from marknav.outputs import printable
 
     if args.max_time is not None and not args.max_time > 0:
         raise InputError(f"must be positive, got {args.max_time}", field="--max-time")
     if args.seed is not None and args.seed < 0:
         raise InputError(f"must be ≥ 0, got {args.seed}", field="--seed")
+    check_outputs(args)
     overrides = parse_overrides(args.overrides)
     world = None if args.world in (None, "generate", "random") else args.world
     # Everything 'marknav validate' checks, before anything starts; then only the hardware.
     mission = checked_mission(args.mission, overrides, world=world)
     report_path: Path = args.report or default_run_dir(mission) / "report.json"
     events_path: Path = args.events or report_path.with_name(report_path.stem + ".events.jsonl")
+    if args.events is None:
+        from marknav.outputs import check_output_file
+
+        check_output_file(events_path, option="--events")
     generated = args.world in ("generate", "random")
     req = RunRequest(
         mission=mission, world=None if generated else args.world, robot=args.robot,
@@ -74,11 +93,28 @@ def run(args: argparse.Namespace) -> int:
         events_path=events_path, plot_path=args.plot, seed=args.seed,
         realtime=args.realtime, max_time_s=args.max_time,
     )
+
+    def written() -> str:
+        names = {report_path: "report", events_path: "events", args.plot: "plot"}
+        order = [report_path, events_path, args.plot]
+        shown = sorted(req.written, key=lambda p: order.index(p) if p in order else 9)
+        return "  ".join(f"{names[p]}: {printable(str(p))}" for p in shown)
+
+    def write_errors() -> None:
+        for error in req.write_errors:
+            print(f"marknav run: error: {printable(error)}", file=sys.stderr)
+
     try:
         result = execute(req)
     except KeyboardInterrupt:
-        print(f"marknav run: interrupted; wheels stopped; report: {report_path}",
+        write_errors()
+        print(f"marknav run: interrupted; wheels stopped; {written() or 'nothing written'}",
               file=sys.stderr)
+        raise
+    except InputError:
+        write_errors()
+        if req.written:
+            print(f"marknav run: did not start; {written()}", file=sys.stderr)
         raise
     report = result.report
     print(summary(report))
@@ -92,8 +128,11 @@ def run(args: argparse.Namespace) -> int:
                 side = f"passed on its {wp.passed_on} ({ok})"
             truth = f"; ground truth: {side}, closest {wp.min_clearance_mm:.0f} mm"
         print(f"  {i}. {wp.colour} (pass on its {wp.side}): {wp.outcome}{truth}")
-    print(f"report: {report_path}  events: {events_path}"
-          + (f"  plot: {args.plot}" if args.plot else ""))
+    if req.written:
+        print(written())
+    if req.write_errors:
+        write_errors()
+        return 2
     if report.outcome != "success":
         raise MissionFailed(f"{report.outcome}: {report.reason}")
     return 0

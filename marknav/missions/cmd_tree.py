@@ -34,6 +34,10 @@ def run(args: argparse.Namespace) -> int:
     from marknav.missions.run import build_mission_tree
     from marknav.missions.tree_display import UNICODE_LEGEND, dot_tree, unicode_tree
 
+    if args.dot is not None:
+        from marknav.outputs import check_output_file
+
+        check_output_file(args.dot, option="--dot")  # before the work, not after
     # The same checks as 'marknav validate' (and 'run'): a tree is only drawn for a mission
     # that would run.
     mission = checked_mission(args.mission, parse_overrides(args.overrides))

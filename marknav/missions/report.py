@@ -12,13 +12,17 @@ the ``--set KEY=VALUE`` settings the run used on top of the mission file.
 
 from __future__ import annotations
 
+import contextlib
 import json
+import logging
 import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
 import numpy as np
+
+log = logging.getLogger(__name__)
 
 SUCCESS = "success"
 FAILED = "failed"
@@ -80,22 +84,38 @@ class RunReport:
         return d
 
     def write(self, path: str | Path) -> None:
+        """Write the report (its folder must exist: see :mod:`marknav.outputs`). A regular
+        file is replaced atomically; anything else (``/dev/stdout``) is written in place.
+        Raises ``OSError`` if it cannot be written (ENOSPC, EACCES…)."""
         p = Path(path)
-        p.parent.mkdir(parents=True, exist_ok=True)
-        tmp = p.with_suffix(p.suffix + ".tmp")
-        tmp.write_text(json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8")
-        tmp.replace(p)
+        text = json.dumps(self.to_dict(), indent=2) + "\n"
+        if p.exists() and not p.is_file():
+            with open(p, "w", encoding="utf-8") as fh:
+                fh.write(text)
+            return
+        tmp = p.with_name(p.name + ".tmp")
+        try:
+            tmp.write_text(text, encoding="utf-8")
+            tmp.replace(p)
+        except OSError:
+            tmp.unlink(missing_ok=True)
+            raise
 
 
 class EventLog:
-    """Append-only JSON Lines log, flushed after every event."""
+    """Append-only JSON Lines log, flushed after every event.
+
+    Opening it raises ``OSError`` (check the path first: :mod:`marknav.outputs`). A write that
+    fails later (a full disk: ENOSPC) never stops the run: the log stops there, and
+    :attr:`error` says why.
+    """
 
     def __init__(self, path: str | Path | None) -> None:
         self.path = Path(path) if path is not None else None
         self._fh: TextIO | None = None
         self.count = 0
+        self.error: str | None = None
         if self.path is not None:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
             self._fh = open(self.path, "w", encoding="utf-8")  # noqa: SIM115 (closed in close())
 
     def write(self, t: float, kind: str, **data: Any) -> None:
@@ -103,12 +123,27 @@ class EventLog:
         if self._fh is None:
             return
         record = {"t": round(t, 4), "kind": kind, **data}
-        self._fh.write(json.dumps(record, default=str) + "\n")
-        self._fh.flush()
+        try:
+            self._fh.write(json.dumps(record, default=str) + "\n")
+            self._fh.flush()
+        except OSError as exc:
+            self._failed(exc)
+
+    def _failed(self, exc: OSError) -> None:
+        self.error = f"cannot write the event log {self.path}: {exc.strerror or exc}"
+        log.error("%s; the run goes on without it", self.error)
+        fh, self._fh = self._fh, None
+        if fh is not None:
+            with contextlib.suppress(OSError):  # the line that failed fails again on close
+                fh.close()
 
     def close(self) -> None:
         if self._fh is not None:
-            self._fh.close()
+            try:
+                self._fh.close()
+            except OSError as exc:
+                self._fh = None
+                self._failed(exc)
             self._fh = None
 
     def __enter__(self) -> EventLog:

@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import logging
 import math
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
 import py_trees
 
+from marknav import outputs, signals
 from marknav.behaviours import keys
 from marknav.behaviours.route import build_route_tree, failure_reason
 from marknav.errors import InputError
@@ -43,6 +43,9 @@ class RunRequest:
     seed: int | None = None
     realtime: bool = False
     max_time_s: float | None = None
+    #: Filled in by :func:`execute`: the files it wrote, and why others could not be written.
+    written: list[Path] = field(default_factory=list)
+    write_errors: list[str] = field(default_factory=list)
     randomise: bool = False  # generated worlds: random conditions and mark yaw (evaluation)
     generate_world: bool = False  # ignore the mission's sim.world: generate one from the seed
 
@@ -114,15 +117,16 @@ def make_environment(mission: Mission, req: RunRequest, seed: int) -> Environmen
     from marknav.missions.hardware import HardwareEnvironment
     from marknav.vision.sources import open_source
 
-    camera = open_source(req.camera)
-    driver = CreateDriver(
-        req.robot, model=mission.robot.model,
-        command_timeout_s=mission.safety.command_timeout_s,
-        sensor_timeout_s=mission.safety.sensor_timeout_s,
-        wheel_base_mm=mission.robot.wheel_base_mm,
-    )
+    # timeout 0: the control cycle takes the newest frame if there is one, and never waits
+    camera = open_source(req.camera, timeout_s=0.0)
     try:
-        driver.connect()
+        driver = CreateDriver(
+            req.robot, model=mission.robot.model,
+            command_timeout_s=mission.safety.command_timeout_s,
+            sensor_timeout_s=mission.safety.sensor_timeout_s,
+            wheel_base_mm=mission.robot.wheel_base_mm,
+        )
+        driver.connect()  # closes itself if it fails or is interrupted
     except BaseException:
         camera.close()
         raise
@@ -173,47 +177,106 @@ def recorded_plans() -> list[Any]:
 
 def execute(req: RunRequest) -> RunResult:
     """Run the mission of ``req`` to the end. Raises InputError for bad input,
-    KeyboardInterrupt (after stopping the wheels and writing the report) on Ctrl-C/SIGTERM."""
+    KeyboardInterrupt (after stopping the wheels and writing the report) on Ctrl-C/SIGTERM.
+
+    The report (``req.report_path``) and the event log (``req.events_path``) are written in
+    every case once this is called — also when the start fails (a robot that does not answer, a
+    camera that cannot be opened: outcome ``aborted``, reason ``did not start: …``) and when a
+    signal arrives at any point (:mod:`marknav.signals`). What was written is listed in
+    ``req.written``, what could not be in ``req.write_errors``. The environment (the driver:
+    wheels stopped, Passive, port closed) is closed on every way out.
+    """
     mission = req.mission
     seed = req.seed if req.seed is not None else (mission.sim.seed if mission.sim else 0)
-    root = build_mission_tree(mission)
-    keys.reset()
-    env = make_environment(mission, req, seed)
     report = RunReport(
         mission=mission.name, seed=seed if req.robot == "sim" else None,
         robot=req.robot, camera=req.camera,
         waypoints=[WaypointResult(colour=c, side=mission.side_of(c)) for c in mission.route],
         overrides=list(mission.overrides),
     )
-    events = EventLog(req.events_path)
-    options = RunOptions(
-        rate_hz=mission.control.rate_hz,
-        max_time_s=req.max_time_s if req.max_time_s is not None else default_max_time_s(mission),
-        realtime=req.realtime, sleep=req.robot != "sim",
-        tree_style=req.tree_style, view_out=req.out,
-    )
-    result = RunResult(report=report, environment=env)
+    report.outcome, report.reason = ABORTED, "did not start"
     try:
+        events = EventLog(req.events_path)
+    except OSError as exc:
+        raise InputError(f"cannot write the event log: {exc.strerror or exc}",
+                         file=str(req.events_path), field="--events") from None
+    env: Environment | None = None
+    result: RunResult | None = None
+    try:
+        root = build_mission_tree(mission)
+        keys.reset()
+        env = make_environment(mission, req, seed)
+        result = RunResult(report=report, environment=env)
+        options = RunOptions(
+            rate_hz=mission.control.rate_hz,
+            max_time_s=(req.max_time_s if req.max_time_s is not None
+                        else default_max_time_s(mission)),
+            realtime=req.realtime, sleep=req.robot != "sim",
+            tree_style=req.tree_style, view_out=req.out,
+        )
         run_tree(
             root, env, report, events, options,
             setup_kwargs={"robot": env.robot, "clock": env.clock, "mission": mission,
                           "camera": env.camera},
-            status_line=lambda: status_line(env),
+            status_line=lambda: status_line(env) if env is not None else "",
             waypoint_outcomes=lambda: waypoint_outcomes(mission, report),
             classify=_classify,
         )
+    except (InputError, KeyboardInterrupt) as exc:
+        if env is None:  # the start failed: say why in the report and the log
+            why = (f"interrupted ({exc or 'SIGINT'}) while starting"
+                   if isinstance(exc, KeyboardInterrupt) else f"did not start: {exc}")
+            report.outcome, report.reason = ABORTED, why
+            events.write(0.0, "end", outcome=report.outcome, reason=why, ticks=0)
+        elif isinstance(exc, KeyboardInterrupt) and report.reason == "did not start":
+            report.reason = f"interrupted ({exc or 'SIGINT'})"  # before the loop began
+        raise
     finally:
-        try:
-            env.close()
-        finally:
-            result.plans = recorded_plans()
-            _fill_ground_truth(mission, env, report)
-            events.close()
-            if req.report_path is not None:
-                report.write(req.report_path)
-            if req.plot_path is not None:
-                _plot(mission, env, result, req.plot_path)
+        with signals.deferred():
+            _finish(req, mission, env, result, report, events)
+    assert result is not None
     return result
+
+
+def _finish(req: RunRequest, mission: Mission, env: Environment | None,
+            result: RunResult | None, report: RunReport, events: EventLog) -> None:
+    """Close the environment, complete and write the report and the log, draw the plot.
+    An exception from the ground truth (a bug) is raised again once the files are written."""
+    failure: Exception | None = None
+    try:
+        if env is not None:
+            env.close()
+    finally:
+        if env is not None and result is not None:
+            result.plans = recorded_plans()
+            try:
+                _fill_ground_truth(mission, env, report)
+            except Exception as exc:
+                failure = exc
+        events.close()
+        if events.path is not None:
+            if events.error is None:
+                req.written.append(events.path)
+            else:
+                req.write_errors.append(events.error)
+        if req.report_path is not None:
+            try:
+                report.write(req.report_path)
+                req.written.append(req.report_path)
+            except OSError as exc:
+                req.write_errors.append(f"cannot write the report {req.report_path}: "
+                                        f"{exc.strerror or exc}")
+        if req.plot_path is not None and env is not None and result is not None:
+            try:
+                _plot(mission, env, result, req.plot_path)
+                req.written.append(req.plot_path)
+            except InputError as exc:
+                req.write_errors.append(str(exc))
+            except OSError as exc:
+                req.write_errors.append(f"cannot write the plot {req.plot_path}: "
+                                        f"{exc.strerror or exc}")
+        if failure is not None:
+            raise failure
 
 
 def _classify(root: py_trees.behaviour.Behaviour) -> tuple[bool, str]:
@@ -268,5 +331,6 @@ def summary(report: RunReport) -> str:
 
 
 def default_run_dir(mission: Mission) -> Path:
-    stamp = time.strftime("%Y%m%d-%H%M%S")
-    return Path("runs") / f"{mission.name}-{stamp}"
+    """A new folder under ``runs/`` named after the mission (made safe: see
+    :func:`marknav.outputs.safe_file_name`), created now."""
+    return outputs.default_run_dir(mission.name)

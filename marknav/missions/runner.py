@@ -14,12 +14,9 @@ Environments (the simulator, a real Create + camera) implement :class:`Environme
 from __future__ import annotations
 
 import logging
-import signal
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import dataclass
-from types import FrameType
 from typing import Any, Protocol, TextIO
 
 import py_trees
@@ -29,6 +26,7 @@ from marknav.clock import Clock
 from marknav.drivers.robot import ESTOPPED, FAULT, Robot
 from marknav.missions.display import TreeView
 from marknav.missions.report import ABORTED, FAILED, SUCCESS, EventLog, RunReport
+from marknav.signals import Interrupted, interrupting
 from marknav.vision.sources import FrameSource
 
 log = logging.getLogger(__name__)
@@ -120,28 +118,9 @@ class MissionTree(py_trees.trees.BehaviourTree):
         self.count += 1
 
 
-class Interrupted(KeyboardInterrupt):
-    """Raised inside the loop by SIGINT/SIGTERM."""
-
-
-@contextmanager
-def _signals_interrupt() -> Iterator[None]:
-    """Turn SIGINT and SIGTERM into :class:`Interrupted` for the duration of a run."""
-
-    def handler(signum: int, frame: FrameType | None) -> None:
-        raise Interrupted(signal.Signals(signum).name)
-
-    try:
-        old_int = signal.signal(signal.SIGINT, handler)
-        old_term = signal.signal(signal.SIGTERM, handler)
-    except ValueError:  # not the main thread: leave signals alone
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, old_int)
-        signal.signal(signal.SIGTERM, old_term)
+#: SIGINT/SIGTERM raise :class:`Interrupted` inside the loop (the process-wide policy of
+#: :mod:`marknav.signals`, set up for the run if the CLI has not set it up for the process).
+_signals_interrupt = interrupting
 
 
 def failure_reason(root: py_trees.behaviour.Behaviour) -> str:

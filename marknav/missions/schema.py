@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import unicodedata
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -449,6 +450,20 @@ class Mission(BaseModel):
     _overrides: tuple[str, ...] = PrivateAttr(())
 
     # validation -----------------------------------------------------------------------------
+
+    @field_validator("name")
+    @classmethod
+    def _name_printable(cls, name: str) -> str:
+        # The name is shown on the terminal and names the run folder (made safe there):
+        # a NUL, newline or ESC would garble one and the other.
+        bad = next((c for c in name if unicodedata.category(c) in ("Cc", "Cf", "Zl", "Zp")),
+                   None)
+        if bad is not None:
+            raise ValueError(f"the name contains the control character U+{ord(bad):04X}; "
+                             "use printable characters")
+        if len(name) > 200:
+            raise ValueError(f"the name is {len(name)} characters long; at most 200")
+        return name
 
     @field_validator("route")
     @classmethod

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,10 +21,25 @@ from typing import Any
 import numpy as np
 
 from marknav.errors import InputError
+from marknav.inputfile import MAX_TABLE_BYTES, read_text
 from marknav.vision.estimate import PowerLaw
 
 HEADER = ("radius_px", "distance_mm")
 MIN_ROWS = 3
+#: Longest cell accepted (a number needs a few characters; the csv module's own limit is 128 k).
+MAX_CELL = 40
+#: Plausible measurements: an image radius up to 100 000 px, a distance up to 1 km.
+MAX_VALUE = {"radius_px": 1e5, "distance_mm": 1e6}
+#: The radii must differ by at least 1 % (ln 1.01), or the slope b is noise.
+MIN_LOG_SPREAD = math.log(1.01)
+
+
+_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
+
+
+class FitError(ValueError):
+    """The rows do not determine a usable law (radii too close, distance growing with the
+    radius, numbers out of range)."""
 
 
 @dataclass(frozen=True)
@@ -106,8 +122,19 @@ def fit_power_law(
         raise ValueError("radii and distances must be finite and positive")
     lr, ld = np.log(r), np.log(d)
     if np.ptp(lr) == 0:
-        raise ValueError("all radii are equal: the law cannot be fitted")
-    b, ln_a = np.polyfit(lr, ld, 1)
+        raise FitError("all radii are equal: the law cannot be fitted")
+    if np.ptp(lr) < MIN_LOG_SPREAD:
+        raise FitError(f"the radii differ by less than 1 % ({r.min():g} to {r.max():g} px): "
+                       "the law cannot be fitted; measure over a wider range of distances")
+    b, ln_a = (float(v) for v in np.polyfit(lr, ld, 1))
+    if not (math.isfinite(b) and math.isfinite(ln_a)):
+        raise FitError("the fit did not converge (numbers out of range)")
+    if b >= 0:
+        raise FitError(f"the fitted distance grows with the radius (b = {b:.4g} ≥ 0): a mark "
+                       "must look smaller when farther; check the columns are radius_px, "
+                       "distance_mm")
+    if ln_a > 700:  # exp overflows near 709.8; no camera has a ~1e304
+        raise FitError(f"the fitted law is out of range (a = e^{ln_a:.4g}); check the table")
     a = math.exp(ln_a)
     pred = ln_a + b * lr
     ss_res = float(np.sum((ld - pred) ** 2))
@@ -126,20 +153,19 @@ def read_table(path: str | Path) -> tuple[list[float], list[float], list[int]]:
     """Read a ``radius_px,distance_mm`` CSV; every problem is an :class:`InputError` naming the
     file and line. Blank lines and lines starting with ``#`` are ignored."""
     name = str(path)
-    try:
-        with open(path, encoding="utf-8", newline="") as fh:
-            text = fh.read()
-    except FileNotFoundError:
-        raise InputError("no such file", file=name) from None
-    except IsADirectoryError:
-        raise InputError("is a directory, expected a CSV table", file=name) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read: {exc}", file=name) from None
+    text = read_text(path, limit=MAX_TABLE_BYTES, what="a CSV table")  # BOM dropped
     radii: list[float] = []
     dists: list[float] = []
     lines: list[int] = []
     header_seen = False
-    for lineno, row in enumerate(csv.reader(text.splitlines()), start=1):
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        if len(raw) > 2 * MAX_CELL + 8:
+            raise InputError(f"line too long ({len(raw)} characters) for a "
+                             "radius_px,distance_mm row", file=name, line=lineno)
+        try:
+            row = next(csv.reader([raw]), [])
+        except csv.Error as exc:
+            raise InputError(f"not a CSV row: {exc}", file=name, line=lineno) from None
         cells = [c.strip() for c in row]
         if not cells or all(c == "" for c in cells) or cells[0].startswith("#"):
             continue
@@ -155,14 +181,17 @@ def read_table(path: str | Path) -> tuple[list[float], list[float], list[int]]:
             raise InputError(f"expected 2 values, got {len(cells)}", file=name, line=lineno)
         values: list[float] = []
         for field, cell in zip(HEADER, cells, strict=True):
-            try:
-                v = float(cell)
-            except ValueError:
-                raise InputError(f"not a number: {cell!r}", file=name, line=lineno,
-                                 field=field) from None
+            if len(cell) > MAX_CELL or not _NUMBER.fullmatch(cell):
+                shown = cell if len(cell) <= MAX_CELL else cell[:MAX_CELL] + "…"
+                raise InputError(f"not a number: {shown!r}", file=name, line=lineno,
+                                 field=field)
+            v = float(cell)
             if not math.isfinite(v) or v <= 0:
                 raise InputError(f"must be a positive number, got {cell}", file=name,
                                  line=lineno, field=field)
+            if v > MAX_VALUE[field]:
+                raise InputError(f"out of range: {cell} (at most {MAX_VALUE[field]:g})",
+                                 file=name, line=lineno, field=field)
             values.append(v)
         radii.append(values[0])
         dists.append(values[1])
@@ -178,9 +207,13 @@ def read_table(path: str | Path) -> tuple[list[float], list[float], list[int]]:
 
 
 def fit_table(path: str | Path) -> PowerFit:
-    """Read a calibration CSV and fit it."""
+    """Read a calibration CSV and fit it; a table that cannot be fitted is an
+    :class:`InputError` naming the file."""
     radii, dists, lines = read_table(path)
-    return fit_power_law(radii, dists, lines)
+    try:
+        return fit_power_law(radii, dists, lines)
+    except FitError as exc:
+        raise InputError(str(exc), file=str(path)) from None
 
 
 def plot_fit(fit: PowerFit, out: str | Path, title: str = "Range calibration") -> None:

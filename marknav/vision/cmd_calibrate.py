@@ -47,6 +47,12 @@ def print_fit(fit: PowerFit, *, as_json: bool, source: str) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.sim == (args.table is not None):
         raise InputError("give either a TABLE.csv or --sim")
+    if args.plot:
+        from pathlib import Path
+
+        from marknav.outputs import check_output_file
+
+        check_output_file(Path(args.plot), option="--plot")
     if args.sim:
         from marknav.sim.calibration import sim_calibration_table
 

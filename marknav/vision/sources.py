@@ -6,8 +6,10 @@ deliver :class:`Frame` objects through :class:`FrameSource`, so the detector can
 :func:`open_source` picks the kind from a string, as ``--camera`` and ``serve-camera`` take it:
 
 - ``"0"``, ``"1"`` …, ``/dev/video0`` … — a camera device (OpenCV ``VideoCapture``);
-- ``http://``, ``https://``, ``rtsp://`` — a network stream (an MJPEG stream from
-  ``marknav serve-camera``, an IP camera);
+- ``http://``, ``https://`` — an MJPEG stream (``marknav serve-camera``, an IP camera), read
+  by :mod:`marknav.vision.mjpeg` with bounded socket timeouts (no FFmpeg: a frozen server is a
+  stopped stream, never a crash); an HTTP URL that serves something else goes to OpenCV;
+- ``rtsp://`` — a network stream through OpenCV/FFmpeg, with open and read timeouts;
 - a directory, or a glob such as ``shots/*.png`` — its images in name order, each once;
 - an image file (png, jpg, bmp, tif, webp) — a still camera: every read gives that image again,
   with a new index;
@@ -17,7 +19,8 @@ Live sources (devices and streams) are read on a background thread that keeps on
 frame: a reader slower than the camera then sees the present, not a queue of old frames (read at
 10 Hz, a 30 fps stream otherwise falls seconds behind). ``read`` returns a frame newer than the
 last one it returned, waiting at most ``timeout_s`` for it, else ``None`` — a camera that stops
-delivering is reported (logged, and ``None``), never hung on.
+delivering is reported (logged, and ``None``), never hung on. The control loop opens its camera
+with ``timeout_s=0``: a tick takes the newest frame if there is one and never waits.
 """
 
 from __future__ import annotations
@@ -36,6 +39,7 @@ import numpy.typing as npt
 
 from marknav.clock import Clock, MonotonicClock
 from marknav.errors import InputError
+from marknav.vision import imagefile
 
 log = logging.getLogger(__name__)
 
@@ -69,13 +73,9 @@ class FrameSource(Protocol):
 
 
 def read_image(path: str) -> Image:
-    """Read a BGR image; :class:`InputError` naming the file if it cannot."""
-    if not Path(path).is_file():
-        raise InputError("no such file", file=path)
-    image = cv2.imread(path, cv2.IMREAD_COLOR)
-    if image is None:
-        raise InputError("cannot read the image (missing, unreadable or not an image)", file=path)
-    return np.asarray(image, dtype=np.uint8)
+    """Read a BGR image; :class:`InputError` naming the file if it cannot (bounded: see
+    :mod:`marknav.vision.imagefile`)."""
+    return imagefile.read_image(path)
 
 
 class StillImageSource:
@@ -113,11 +113,12 @@ class ImageFolderSource:
         while self._next < len(self._paths):
             path = self._paths[self._next]
             self._next += 1
-            image = cv2.imread(path, cv2.IMREAD_COLOR)
-            if image is None:
-                log.warning("%s: skipping %s: not a readable image", self.name, path)
+            try:
+                image = imagefile.read_image(path)
+            except InputError as exc:
+                log.warning("%s: skipping %s", self.name, exc)
                 continue
-            return Frame(np.asarray(image, dtype=np.uint8), self._clock.now(), self._next)
+            return Frame(image, self._clock.now(), self._next)
         return None
 
     def close(self) -> None:
@@ -152,62 +153,89 @@ class VideoFileSource:
             self._cap = None
 
 
-class LiveCaptureSource:
-    """A camera device or network stream, grabbed on a thread that keeps the newest frame."""
+class GrabbedSource:
+    """A live source read on a thread that keeps only the newest frame.
 
-    def __init__(self, name: str, target: int | str, *, clock: Clock | None = None,
-                 timeout_s: float = DEFAULT_TIMEOUT_S, open_timeout_s: float = 5.0) -> None:
+    Subclasses implement :meth:`_grab_image` (block at most a bounded time for the next image;
+    ``None`` when none came) and :meth:`_release`. ``read`` never waits longer than
+    ``timeout_s`` (``0``: the control cycle takes the newest frame if there is one, and goes on).
+    """
+
+    def __init__(self, name: str, *, clock: Clock | None = None,
+                 timeout_s: float = DEFAULT_TIMEOUT_S) -> None:
         self.name = name
         self.timeout_s = timeout_s
         self._clock = clock or MonotonicClock()
-        self._cap = cv2.VideoCapture(target)
-        if not self._cap.isOpened():
-            self._cap.release()
-            raise InputError("cannot open the camera or stream", file=name)
         self._cond = threading.Condition()
         self._latest: Frame | None = None
         self._returned = 0
         self._closing = False
         self._failed_reported = False
         self._thread = threading.Thread(target=self._grab, name=f"camera {name}", daemon=True)
+
+    def _start(self, open_timeout_s: float) -> None:
+        """Start grabbing; :class:`InputError` if no frame arrives within ``open_timeout_s``
+        (the wait is interruptible: Ctrl-C ends it at once)."""
         self._thread.start()
+        deadline = time.monotonic() + open_timeout_s
         with self._cond:
-            self._cond.wait_for(lambda: self._latest is not None or self._closing,
-                                timeout=open_timeout_s)
-            if self._latest is None:
-                self.close()
-                raise InputError(f"no frame within {open_timeout_s:g} s", file=name)
+            while self._latest is None and not self._closing:
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    break
+                self._cond.wait(min(remaining, 0.1))
+            got = self._latest is not None
+        if not got:
+            self.close()
+            raise InputError(f"no frame within {open_timeout_s:g} s", file=self.name)
+
+    def _grab_image(self) -> Image | None:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _release(self) -> None:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _interrupt(self) -> None:
+        """Unblock a :meth:`_grab_image` in progress (close a socket…); default: nothing."""
 
     def _grab(self) -> None:
         index = 0
-        while True:
-            with self._cond:
-                if self._closing:
-                    return
-            ok, image = self._cap.read()
-            if not ok or image is None:
+        try:
+            while True:
                 with self._cond:
                     if self._closing:
                         return
-                    if not self._failed_reported:
-                        log.warning("camera %s: no frame (stream stopped?)", self.name)
-                        self._failed_reported = True
-                time.sleep(0.05)
-                continue
-            index += 1
-            frame = Frame(np.asarray(image, dtype=np.uint8), self._clock.now(), index)
-            with self._cond:
-                self._latest = frame
-                self._failed_reported = False
-                self._cond.notify_all()
+                try:
+                    image = self._grab_image()
+                except Exception as exc:  # a camera failure must not end the thread silently
+                    log.debug("camera %s: %s", self.name, exc)
+                    image = None
+                if image is None:
+                    with self._cond:
+                        if self._closing:
+                            return
+                        if not self._failed_reported:
+                            log.warning("camera %s: no frame (stream stopped?)", self.name)
+                            self._failed_reported = True
+                    time.sleep(0.05)
+                    continue
+                index += 1
+                frame = Frame(np.asarray(image, dtype=np.uint8), self._clock.now(), index)
+                with self._cond:
+                    self._latest = frame
+                    self._failed_reported = False
+                    self._cond.notify_all()
+        finally:
+            self._release()
 
     def read(self) -> Frame | None:
         with self._cond:
-            self._cond.wait_for(
-                lambda: self._closing
-                or (self._latest is not None and self._latest.index > self._returned),
-                timeout=self.timeout_s,
-            )
+            if self.timeout_s > 0:
+                self._cond.wait_for(
+                    lambda: self._closing
+                    or (self._latest is not None and self._latest.index > self._returned),
+                    timeout=self.timeout_s,
+                )
             frame = self._latest
             if self._closing or frame is None or frame.index <= self._returned:
                 return None
@@ -220,8 +248,77 @@ class LiveCaptureSource:
                 return
             self._closing = True
             self._cond.notify_all()
+        self._interrupt()
         if self._thread.is_alive() and threading.current_thread() is not self._thread:
             self._thread.join(timeout=2.0)
+        if not self._thread.is_alive() and self._thread.ident is None:
+            self._release()  # never started
+
+
+#: OpenCV (FFmpeg) waits at most this long to open a stream, and for each read.
+FFMPEG_OPEN_TIMEOUT_MS = 5000
+FFMPEG_READ_TIMEOUT_MS = 2000
+
+
+def open_capture(target: int | str, name: str, *, timeout_s: float) -> cv2.VideoCapture:
+    """``cv2.VideoCapture(target)`` with FFmpeg's open and read timeouts set, opened on a helper
+    thread: the caller waits at most ``timeout_s`` and a Ctrl-C ends the wait at once (OpenCV's
+    open blocks in C, where Python cannot handle the signal, for up to 30 s). A capture that
+    opens after the caller gave up is released by the helper."""
+    params = [cv2.CAP_PROP_OPEN_TIMEOUT_MSEC, FFMPEG_OPEN_TIMEOUT_MS,
+              cv2.CAP_PROP_READ_TIMEOUT_MSEC, FFMPEG_READ_TIMEOUT_MS]
+    box: dict[str, cv2.VideoCapture | bool] = {}
+    done = threading.Event()
+    lock = threading.Lock()
+
+    def opener() -> None:
+        try:
+            cap = cv2.VideoCapture(target, cv2.CAP_ANY, params)
+        except cv2.error as exc:
+            log.debug("camera %s: %s", name, exc)
+            cap = cv2.VideoCapture()
+        with lock:
+            if box.get("abandoned"):
+                cap.release()
+                return
+            box["cap"] = cap
+        done.set()
+
+    threading.Thread(target=opener, name=f"open camera {name}", daemon=True).start()
+    try:
+        deadline = time.monotonic() + timeout_s
+        while not done.wait(0.1):
+            if time.monotonic() > deadline:
+                raise InputError(f"the camera or stream did not open within {timeout_s:g} s",
+                                 file=name)
+    finally:
+        with lock:
+            if "cap" not in box:
+                box["abandoned"] = True
+    cap = box["cap"]
+    assert isinstance(cap, cv2.VideoCapture)
+    return cap
+
+
+class LiveCaptureSource(GrabbedSource):
+    """A camera device or network stream through OpenCV, grabbed on a thread that keeps the
+    newest frame."""
+
+    def __init__(self, name: str, target: int | str, *, clock: Clock | None = None,
+                 timeout_s: float = DEFAULT_TIMEOUT_S, open_timeout_s: float = 5.0) -> None:
+        super().__init__(name, clock=clock, timeout_s=timeout_s)
+        self._cap = open_capture(target, name,
+                                 timeout_s=open_timeout_s + FFMPEG_OPEN_TIMEOUT_MS / 1000)
+        if not self._cap.isOpened():
+            self._cap.release()
+            raise InputError("cannot open the camera or stream", file=name)
+        self._start(open_timeout_s)
+
+    def _grab_image(self) -> Image | None:
+        ok, image = self._cap.read()
+        return np.asarray(image, dtype=np.uint8) if ok and image is not None else None
+
+    def _release(self) -> None:
         self._cap.release()
 
 
@@ -237,6 +334,10 @@ def open_source(spec: str, *, clock: Clock | None = None,
         if not Path(spec).exists():
             raise InputError("no such camera device", file=spec)
         return LiveCaptureSource(spec, spec, clock=clock, timeout_s=timeout_s)
+    if spec.lower().startswith(("http://", "https://")):
+        from marknav.vision.mjpeg import open_http_source
+
+        return open_http_source(spec, clock=clock, timeout_s=timeout_s)
     if spec.lower().startswith(STREAM_SCHEMES):
         return LiveCaptureSource(spec, spec, clock=clock, timeout_s=timeout_s)
     path = Path(spec)

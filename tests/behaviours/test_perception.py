@@ -108,8 +108,35 @@ def test_camera_lost_aborts_the_mission_and_stops_the_wheels(blackboard, fake_ro
     assert why.reason == ("Perception: camera lost: no frame for 1.0 s (limit 1 s): "
                           "mission aborted")
     assert any(c.left > 0 and c.right > 0 for c in fake_robot.commands)  # it was driving
-    assert fake_robot.wheels == (0, 0)  # Approach's terminate stopped them on that tick
-    assert fake_robot.commands[-1].t == pytest.approx(manual_clock.now())
+    assert fake_robot.wheels == (0, 0)
+    # Held from the first tick more than lost_after_s (0.5 s) after the last frame: Approach was
+    # stopped then (its terminate zeroed the wheels) and nothing drove afterwards — no search
+    # turn on old frames.
+    assert fake_robot.commands[-1].t == pytest.approx(0.78)
+    assert (fake_robot.commands[-1].left, fake_robot.commands[-1].right) == (0, 0)
+
+
+def test_a_stalled_camera_holds_the_route_until_frames_come_back(
+        blackboard, fake_robot, manual_clock, mission_factory):
+    mission = mission_factory(route=["red"])
+    frames = ([disc_frame(319.5, 25.0, i) for i in range(5)] + [None] * 25
+              + [disc_frame(319.5, 25.0, 100 + i) for i in range(40)])
+    tree = py_trees.trees.BehaviourTree(build_route_tree(mission))
+    tree.setup(robot=fake_robot, clock=manual_clock, mission=mission, camera=ListSource(frames))
+    perception = next(n for n in tree.root.iterate() if n.name == "Perception")
+    held = []
+    for _ in range(len(frames)):
+        tree.tick()
+        assert tree.root.status == Status.RUNNING
+        if perception.status == Status.RUNNING:
+            held.append(manual_clock.now())
+            assert fake_robot.wheels == (0, 0)
+            assert perception.feedback_message.startswith("holding: no new frame for")
+        manual_clock.advance(0.03)
+    # frames at 0 … 0.12 s, none until 0.90 s: held from 0.63 s (silent > 0.5 s) to 0.87 s
+    assert held == pytest.approx([0.03 * i for i in range(21, 30)])
+    assert not any(c.left * c.right < 0 for c in fake_robot.commands)  # never a search turn
+    assert fake_robot.commands[-1].left > 0 and fake_robot.commands[-1].right > 0  # driving again
 
 
 def test_no_camera_is_a_setup_error(blackboard, fake_robot, manual_clock, mission_factory):

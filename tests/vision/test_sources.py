@@ -66,7 +66,7 @@ def test_video_file_frames_then_none(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize(
     ("spec", "message"),
-    [("missing.png", "missing.png: cannot read the image"),
+    [("missing.png", "missing.png: not an image marknav reads"),
      ("nowhere/clip.mp4", "nowhere/clip.mp4: no such file, directory or camera"),
      ("/dev/video97", "/dev/video97: no such camera device")],
 )

@@ -1,0 +1,622 @@
+"""Fault injection: each fault of issue #15 (items 1–8, 10–15), reproduced against the real thing.
+
+Real processes (``python -m marknav``), a simulated Create on a real pseudo-terminal
+(:class:`~marknav.sim.pty.PtyServer`: the bytes the robot got, its OI mode and wheels after the
+run), loopback sockets (an RFC 2217 client, an HTTP server that never answers, ``marknav
+serve-camera`` frozen with SIGSTOP), real signals. Every wait is bounded; no assertion is about
+speed ("a read never waits" is shown by making the wait itself fail).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import random
+import re
+import resource
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import time
+import zlib
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+
+from marknav.cli import main
+from marknav.clock import MonotonicClock
+from marknav.drivers import cmd_serve_robot, oi
+from marknav.drivers.cmd_serve_robot import Rfc2217Bridge
+from marknav.drivers.driver import CreateDriver
+from marknav.drivers.packets import OIMode
+from marknav.drivers.transport import open_port
+from marknav.errors import InputError
+from marknav.sim.create import SimulatedCreate, WheelSpeeds
+from marknav.sim.pty import PtyServer
+
+ROOT = Path(__file__).resolve().parents[1]
+SLALOM = ROOT / "missions" / "slalom.yaml"
+IMAGE = ROOT / "tests" / "data" / "smarties.png"
+ENV = {**os.environ, "PYTHONUNBUFFERED": "1", "PY_TREES_DISABLE_COLORS": "1"}
+
+
+def wait_until(cond: Callable[[], bool], timeout: float) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if cond():
+            return True
+        time.sleep(0.01)
+    return cond()
+
+
+def marknav(*args: str, cwd: Path, timeout: float = 90, mem_bytes: int | None = None
+            ) -> subprocess.CompletedProcess[str]:
+    def limit() -> None:
+        if mem_bytes is not None:
+            resource.setrlimit(resource.RLIMIT_AS, (mem_bytes, mem_bytes))
+
+    return subprocess.run([sys.executable, "-m", "marknav", *args], cwd=cwd, env=ENV,
+                          capture_output=True, text=True, timeout=timeout, preexec_fn=limit)
+
+
+def spawn(*args: str, cwd: Path, **kw: Any) -> subprocess.Popen[str]:
+    return subprocess.Popen([sys.executable, "-m", "marknav", *args], cwd=cwd, env=ENV,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
+
+
+def finish(proc: subprocess.Popen[str], timeout: float = 60) -> tuple[int, str, str]:
+    try:
+        out, err = proc.communicate(timeout=timeout)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    return proc.returncode, out, err
+
+
+def mission_named(tmp_path: Path, name: str, file: str = "m.yaml") -> Path:
+    text = SLALOM.read_text(encoding="utf-8")
+    lines = [f"name: {json.dumps(name)}" if ln.startswith("name:") else ln
+             for ln in text.splitlines()]
+    text = "\n".join(lines).replace("world: worlds/", f"world: {SLALOM.parent}/worlds/")
+    path = tmp_path / file
+    path.write_text(text + "\n", encoding="utf-8")
+    return path
+
+
+def hardware_mission(tmp_path: Path) -> Path:
+    """The slalom with watchdogs loose enough for a loaded CI machine (these tests are about
+    files and signals; the watchdogs have their own tests)."""
+    data = yaml.safe_load(SLALOM.read_text(encoding="utf-8"))
+    data["safety"] = {**data.get("safety", {}), "sensor_timeout_s": 2.0,
+                      "command_timeout_s": 2.0}
+    data.pop("sim", None)
+    path = tmp_path / "hw.yaml"
+    path.write_text(yaml.safe_dump(data), encoding="utf-8")
+    return path
+
+
+@pytest.fixture
+def robot() -> Iterator[PtyServer]:
+    """A simulated Create 2 on a real pseudo-terminal."""
+    server = PtyServer(SimulatedCreate(clock=MonotonicClock()))
+    server.start()
+    try:
+        yield server
+    finally:
+        server.close()
+
+
+def assert_left_safe(server: PtyServer) -> None:
+    sim = server.sim
+    assert sim.wheel_speeds == WheelSpeeds(left=0.0, right=0.0)
+    assert sim.mode == OIMode.PASSIVE
+    assert not sim.streaming
+
+
+def wait_for_status(events: Path, proc: subprocess.Popen[str], timeout: float = 60) -> None:
+    assert wait_until(lambda: proc.poll() is not None or (
+        events.exists() and '"kind": "status"' in events.read_text()), timeout)
+    assert proc.poll() is None, proc.communicate()
+
+
+# --- 1, 15: serve-robot ---
+
+@pytest.fixture
+def bridge(robot: PtyServer) -> Iterator[Rfc2217Bridge]:
+    port = open_port(robot.path, baudrate=115200, timeout=0.01)
+    b = Rfc2217Bridge(port, tcp_port=0, idle_stop_s=0.3, name=robot.path).start()
+    try:
+        yield b
+    finally:
+        b.close()
+        port.close()
+
+
+def connect(bridge: Rfc2217Bridge) -> socket.socket:
+    s = socket.create_connection(("127.0.0.1", bridge.tcp_port), timeout=3)
+    s.settimeout(0.2)
+    return s
+
+
+def closed_by_peer(s: socket.socket, timeout: float = 5.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        try:
+            if s.recv(4096) == b"":
+                return True
+        except TimeoutError:
+            continue
+        except OSError:
+            return True
+    return False
+
+
+def test_1_idle_stop_fires_after_half_a_command(bridge: Rfc2217Bridge, robot: PtyServer,
+                                                caplog: pytest.LogCaptureFixture) -> None:
+    sim = robot.sim
+    with connect(bridge) as client:
+        client.sendall(oi.start() + oi.safe() + oi.drive_direct(left=100, right=100))
+        assert wait_until(lambda: sim.wheel_speeds == WheelSpeeds(left=100.0, right=100.0), 3)
+        client.sendall(bytes([145, 0]))  # half a Drive Direct, then silence, connection open
+        assert wait_until(lambda: sim.wheel_speeds == WheelSpeeds(left=0.0, right=0.0), 3)
+        assert bridge.client is not None  # still connected: only the wheels were stopped
+    assert any("silent" in r.getMessage() for r in caplog.records)
+
+
+@pytest.mark.parametrize(("args", "field"), [
+    (["--idle-stop", "nan"], "--idle-stop"), (["--idle-stop", "-1"], "--idle-stop"),
+    (["--baud", "7"], "--baud"), (["--port", "70000"], "--port"),
+])
+def test_1_serve_robot_argument_ranges(args: list[str], field: str,
+                                       capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["serve-robot", "--sim", *args]) == 2
+    assert field in capsys.readouterr().err
+
+
+def test_15_unclosed_telnet_suboption_closes_the_client(bridge: Rfc2217Bridge) -> None:
+    with connect(bridge) as client:
+        client.sendall(b"\xff\xfa" + b"x" * 100_000)  # IAC SB, never IAC SE
+        assert closed_by_peer(client)
+    assert wait_until(lambda: bridge.client is None, 3)
+
+
+def test_15_random_bytes_cannot_take_over_an_oi_start_can(bridge: Rfc2217Bridge,
+                                                          robot: PtyServer,
+                                                          monkeypatch: pytest.MonkeyPatch
+                                                          ) -> None:
+    monkeypatch.setattr(cmd_serve_robot, "TAKEOVER_WAIT_S", 0.5)
+    bridge.idle_stop_s = None  # only the takeover policy may stop the wheels here
+    sim = robot.sim
+    with connect(bridge) as first:
+        first.sendall(oi.start() + oi.safe() + oi.drive_direct(left=80, right=80))
+        assert wait_until(lambda: sim.wheel_speeds == WheelSpeeds(left=80.0, right=80.0), 3)
+        owner = bridge.client
+        noise = bytearray(random.Random(15).randbytes(64))
+        noise[0] = 7  # not Start (128), not IAC
+        with connect(bridge) as intruder:
+            intruder.sendall(bytes(noise))
+            assert closed_by_peer(intruder)
+        with connect(bridge) as silent:  # says nothing: refused after TAKEOVER_WAIT_S
+            assert closed_by_peer(silent)
+        first.sendall(oi.drive_direct(left=80, right=80))  # keep the idle stop away
+        assert bridge.client == owner
+        assert sim.wheel_speeds == WheelSpeeds(left=80.0, right=80.0)  # mission not aborted
+        with connect(bridge) as second:
+            # (raw telnet: a 0xFF byte would need escaping, so no negative speeds here)
+            second.sendall(oi.start() + oi.safe() + oi.drive_direct(left=40, right=60))
+            assert closed_by_peer(first)  # the old client is cut off
+            assert wait_until(lambda: sim.wheel_speeds == WheelSpeeds(left=40.0, right=60.0),
+                              3)
+            assert bridge.client not in (None, owner)
+
+
+# --- 2, 3, 8: the serial robot: closed on every way out, exclusive, start-up reports ---
+
+def test_2_unwritable_events_with_a_serial_robot_exit_2_before_touching_it(
+        robot: PtyServer, tmp_path: Path) -> None:
+    proc = marknav("run", str(SLALOM), "--robot", robot.path, "--camera", str(IMAGE),
+                   "--events", "/proc/nope/e.jsonl", cwd=tmp_path)
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert "/proc/nope" in proc.stderr and "does not exist" in proc.stderr
+    assert robot.bytes_in == 0  # never opened: not left in Safe mode with its stream on
+
+
+def test_2_12_events_on_a_full_disk_the_robot_is_still_left_safe(robot: PtyServer,
+                                                                 tmp_path: Path) -> None:
+    report = tmp_path / "r.json"
+    proc = marknav("run", str(hardware_mission(tmp_path)), "--robot", robot.path, "--camera",
+                   str(IMAGE),
+                   "--events", "/dev/full", "--report", str(report), "--max-time", "1",
+                   "--tree", "none", cwd=tmp_path)
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert "No space left on device" in proc.stderr
+    assert json.loads(report.read_text())["reason"].startswith("time limit")
+    assert_left_safe(robot)
+
+
+def test_2_a_driver_interrupted_while_connecting_closes_itself(robot: PtyServer) -> None:
+    driver = CreateDriver(robot.path, settle_s=0.01)
+    original = driver._wait_first_frame
+
+    def interrupted(timeout_s: float) -> None:
+        original(timeout_s)
+        raise KeyboardInterrupt
+
+    driver._wait_first_frame = interrupted  # type: ignore[method-assign]
+    with pytest.raises(KeyboardInterrupt):
+        driver.connect()
+    assert not driver.connected
+    assert wait_until(lambda: robot.sim.mode == OIMode.PASSIVE and not robot.sim.streaming, 2)
+
+
+def test_3_the_serial_port_is_exclusive(robot: PtyServer) -> None:
+    first = open_port(robot.path, baudrate=115200)
+    try:
+        with pytest.raises(InputError, match="port busy"):
+            open_port(robot.path, baudrate=115200)
+    finally:
+        first.close()
+    open_port(robot.path, baudrate=115200).close()  # free again once closed
+
+
+def test_8_a_start_up_failure_leaves_a_report_and_an_event_log(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        dead = s.getsockname()[1]  # nobody listens once closed
+    report = tmp_path / "r.json"
+    assert main(["run", str(SLALOM), "--robot", f"socket://127.0.0.1:{dead}", "--camera",
+                 str(IMAGE), "--report", str(report)]) == 2
+    err = capsys.readouterr().err
+    assert "report: " in err
+    data = json.loads(report.read_text())
+    assert data["outcome"] == "aborted" and data["reason"].startswith("did not start: ")
+    last = json.loads((tmp_path / "r.events.jsonl").read_text().splitlines()[-1])
+    assert last["kind"] == "end" and last["reason"] == data["reason"]
+
+
+# --- 4, 5: a camera server that freezes ---
+
+@pytest.fixture
+def camera_server(tmp_path: Path) -> Iterator[tuple[subprocess.Popen[str], str]]:
+    proc = spawn("serve-camera", "--camera", str(IMAGE), "--port", "0", "--fps", "20",
+                 cwd=tmp_path)
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()
+        url = line.split(" at ")[-1].strip()
+        assert url.startswith("http://"), line
+        yield proc, url
+    finally:
+        os.kill(proc.pid, signal.SIGCONT)
+        proc.terminate()
+        finish(proc, 10)
+
+
+def test_4_reads_of_a_frozen_stream_never_wait(
+        camera_server: tuple[subprocess.Popen[str], str]) -> None:
+    from marknav.vision.sources import open_source
+
+    server, url = camera_server
+    src = open_source(url, timeout_s=0.0)  # as the run opens it
+    try:
+        assert wait_until(lambda: src.read() is not None, 5)
+        os.kill(server.pid, signal.SIGSTOP)
+        time.sleep(0.3)
+        cond = src._cond  # type: ignore[attr-defined]
+
+        def no_waiting(*args: object, **kwargs: object) -> bool:
+            raise AssertionError("a control-cycle read waited for a frame")
+
+        cond.wait_for = no_waiting  # the grabber thread only notifies; reads must not wait
+        frames = [src.read() for _ in range(20)]
+        assert sum(f is not None for f in frames) <= 1  # at most one already in hand
+        del cond.wait_for
+        assert src._thread.is_alive()  # type: ignore[attr-defined]  # still trying
+        os.kill(server.pid, signal.SIGCONT)
+        assert wait_until(lambda: src.read() is not None, 10)  # reconnects when it comes back
+    finally:
+        os.kill(server.pid, signal.SIGCONT)
+        src.close()
+
+
+def test_5_a_run_whose_camera_freezes_aborts_cleanly(
+        camera_server: tuple[subprocess.Popen[str], str], robot: PtyServer,
+        tmp_path: Path) -> None:
+    server, url = camera_server
+    report = tmp_path / "r.json"
+    proc = spawn("run", str(hardware_mission(tmp_path)), "--robot", robot.path, "--camera", url,
+                 "--report",
+                 str(report), "--tree", "none", cwd=tmp_path)
+    wait_for_status(tmp_path / "r.events.jsonl", proc)
+    os.kill(server.pid, signal.SIGSTOP)
+    code, _out, err = finish(proc, 60)
+    assert code == 1, err  # not 139: no segfault
+    assert "Traceback" not in err
+    assert "camera lost" in json.loads(report.read_text())["reason"]
+    assert_left_safe(robot)
+
+
+# --- 6, 7: signals ---
+
+@pytest.mark.parametrize("second", [signal.SIGINT, signal.SIGTERM])
+def test_6_a_second_signal_cannot_lose_the_report(robot: PtyServer, tmp_path: Path,
+                                                  second: int) -> None:
+    report = tmp_path / "r.json"
+    proc = spawn("run", str(hardware_mission(tmp_path)), "--robot", robot.path, "--camera",
+                 str(IMAGE),
+                 "--report", str(report), "--tree", "none", cwd=tmp_path)
+    wait_for_status(tmp_path / "r.events.jsonl", proc)
+    proc.send_signal(signal.SIGINT)
+    time.sleep(0.1)
+    proc.send_signal(second)
+    code, _out, err = finish(proc)
+    assert code == 130, err
+    assert "Traceback" not in err
+    assert f"report: {report}" in err
+    data = json.loads(report.read_text())
+    assert data["outcome"] == "aborted" and data["reason"] == "interrupted (SIGINT)"
+    assert_left_safe(robot)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_7_a_signal_while_importing_exits_130_without_a_traceback(tmp_path: Path,
+                                                                  sig: int) -> None:
+    proc = subprocess.Popen([sys.executable, "-X", "importtime", "-m", "marknav", "validate",
+                             str(SLALOM)], cwd=tmp_path, env=ENV, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    assert proc.stderr is not None
+    seen = []
+    for line in proc.stderr:  # -X importtime: one line per finished import
+        seen.append(line)
+        if line.rstrip().endswith("marknav.outputs"):  # main() imports it after install()
+            proc.send_signal(sig)
+            break
+    code, _out, err = finish(proc, 30)
+    assert code == 130, "".join(seen[-5:]) + err
+    assert "Traceback" not in err
+    assert "interrupted" in err
+
+
+def _run_with_injected_signal(monkeypatch: pytest.MonkeyPatch, target: str, sig: int,
+                              after: bool = False) -> None:
+    """Wrap ``marknav.missions.run.<target>`` so that it sends ``sig`` to this process."""
+    import marknav.missions.run as runmod
+
+    original = getattr(runmod, target)
+
+    def wrapped(*args: Any, **kwargs: Any) -> Any:
+        if not after:
+            os.kill(os.getpid(), sig)
+        result = original(*args, **kwargs)
+        if after:
+            os.kill(os.getpid(), sig)
+        return result
+
+    monkeypatch.setattr(runmod, target, wrapped)
+
+
+@pytest.mark.parametrize(("target", "after", "reason"), [
+    ("run_tree", False, "interrupted (SIGTERM)"),  # before the loop
+    ("_fill_ground_truth", False, "time limit: 1 s"),  # after it (the clean-up runs whole)
+    ("_plot", False, "time limit: 1 s"),  # while plotting
+])
+def test_7_sigterm_outside_the_loop_still_writes_everything(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        target: str, after: bool, reason: str) -> None:
+    _run_with_injected_signal(monkeypatch, target, signal.SIGTERM, after)
+    report, plot = tmp_path / "r.json", tmp_path / "p.png"
+    plotting = ["--plot", str(plot)] if target == "_plot" else []
+    code = main(["run", str(SLALOM), "--max-time", "1", "--tree", "none", "--report",
+                 str(report), *plotting])
+    err = capsys.readouterr().err
+    assert code == 130, err
+    assert f"report: {report}" in err
+    data = json.loads(report.read_text())
+    assert data["reason"] == reason
+    assert data["sim_final"]["wheels_mm_s"] == [0, 0]
+    assert (tmp_path / "r.events.jsonl").exists()
+    if plotting:
+        assert plot.stat().st_size > 0
+
+
+def test_7_sigint_while_loading_names_no_report(monkeypatch: pytest.MonkeyPatch,
+                                                tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    import marknav.missions.schema as schema
+
+    original = schema.load_mission
+
+    def load(path: Any, registry: Any = None) -> Any:
+        os.kill(os.getpid(), signal.SIGINT)
+        return original(path, registry)
+
+    monkeypatch.setattr(schema, "load_mission", load)
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", str(SLALOM)]) == 130
+    err = capsys.readouterr().err
+    assert "interrupted" in err and "report:" not in err
+    assert not (tmp_path / "runs").exists()
+
+
+def test_7_ctrl_c_while_opening_a_camera_that_never_answers(tmp_path: Path) -> None:
+    with socket.socket() as listener:
+        listener.bind(("127.0.0.1", 0))
+        listener.listen(1)
+        listener.settimeout(60)
+        url = f"http://127.0.0.1:{listener.getsockname()[1]}/stream.mjpg"
+        report = tmp_path / "r.json"
+        proc = spawn("run", str(SLALOM), "--robot", "socket://127.0.0.1:9", "--camera", url,
+                     "--report", str(report), cwd=tmp_path)
+        conn, _ = listener.accept()  # it asked; it gets no answer
+        with conn:
+            proc.send_signal(signal.SIGINT)
+            # honoured: an ignored Ctrl-C ends as exit 2 when the 5 s connect timeout fires, one
+            # honoured only when OpenCV's open returns (the old way) after ~30 s
+            code, _out, err = finish(proc, 15)
+    assert code == 130, err
+    assert "Traceback" not in err
+    assert json.loads(report.read_text())["reason"] == "interrupted (SIGINT) while starting"
+
+
+# --- 10: YAML and every other input file ---
+
+def _alias_bomb() -> str:
+    lines = ["a0: &a0 [x, x, x, x, x, x, x, x, x]"]
+    for i in range(1, 9):
+        lines.append(f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * 9) + "]")
+    return "\n".join(lines) + "\n"
+
+
+def test_10_hostile_yaml_files_exit_2_naming_file_and_line(tmp_path: Path) -> None:
+    files = {
+        "deep.yaml": "name: " + "[" * 2000 + "]" * 2000 + "\n",
+        "deepmap.yaml": "".join("  " * i + f"k{i}:\n" for i in range(600)) + "  " * 600 + "x\n",
+        "recursive.yaml": "name: &a [*a]\n",
+        "control.yaml": "name: a\x1bb\nroute: [red]\n",
+        "bomb.yaml": _alias_bomb(),
+        "big.yaml": "name: x\n" + "# padding\n" * 100_000,
+    }
+    for name, text in files.items():
+        (tmp_path / name).write_text(text, encoding="utf-8")
+    os.mkfifo(tmp_path / "fifo.yaml")
+    names = [*files, "fifo.yaml", "/dev/zero", "/dev/urandom", str(tmp_path)]
+    proc = marknav("validate", *names, cwd=tmp_path, timeout=60, mem_bytes=2 << 30)
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr and "MemoryError" not in proc.stderr
+    err = proc.stderr
+    assert "deep.yaml:1:" in err and "nested deeper than" in err
+    assert "deepmap.yaml:" in err
+    assert "recursive.yaml:1:" in err
+    assert "control.yaml:1:8: control character U+001B" in err
+    assert "bomb.yaml:" in err and "expands to more than" in err
+    assert "big.yaml: too large" in err
+    assert "fifo.yaml: is a pipe (FIFO)" in err
+    assert "/dev/zero: is a character device" in err and "/dev/urandom: is a character" in err
+    assert "is a directory" in err
+    assert "\x1b" not in err
+
+
+def test_10_dev_zero_as_world_and_table(tmp_path: Path,
+                                       capsys: pytest.CaptureFixture[str]) -> None:
+    proc = marknav("run", str(SLALOM), "--world", "/dev/zero", cwd=tmp_path, timeout=60,
+                   mem_bytes=2 << 30)
+    assert proc.returncode == 2, proc.stderr
+    assert "/dev/zero: is a character device" in proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert main(["calibrate", "/dev/urandom"]) == 2  # refused before a byte is read
+    assert "/dev/urandom: is a character device" in capsys.readouterr().err
+
+
+# --- 11, 12: output paths ---
+
+@pytest.mark.parametrize("name", ["../../../tmp/i15-escape", "/tmp/i15-absolute", "a/b/c",
+                                  "x" * 199 + "/"])
+def test_11_the_mission_name_never_becomes_a_path(tmp_path: Path, name: str,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    mission = mission_named(tmp_path, name)
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    before = set(Path("/tmp").glob("i15-*"))
+    assert main(["run", str(mission), "--max-time", "0.2", "--tree", "none"]) == 1
+    assert set(Path("/tmp").glob("i15-*")) == before
+    assert [p.parent for p in work.rglob("report.json")] == list((work / "runs").iterdir())
+    (folder,) = (work / "runs").iterdir()
+    assert folder.parent == work / "runs" and len(folder.name) <= 64 + 20
+
+
+@pytest.mark.parametrize("name", ["a\u0000b", "a\nb", "a\u001b[2Jb"])
+def test_11_control_characters_in_names_are_refused_and_never_printed(
+        tmp_path: Path, name: str, capsys: pytest.CaptureFixture[str]) -> None:
+    mission = mission_named(tmp_path, name)
+    assert main(["validate", str(mission)]) == 2
+    err = capsys.readouterr().err
+    assert re.search(re.escape(str(mission)) + r":\d+:7: name: .*control character U\+00",
+                     err), err
+    assert not any(c in err for c in "\x00\x1b")
+
+
+@pytest.mark.parametrize(("option", "value", "message"), [
+    ("--report", "{tmp}", "is a directory"),
+    ("--report", "{tmp}/missing/r.json", "does not exist"),
+    ("--events", "{tmp}/missing/e.jsonl", "does not exist"),
+    ("--plot", "{tmp}/missing/p.png", "does not exist"),
+])
+def test_12_bad_output_paths_exit_2_before_the_run(tmp_path: Path, option: str, value: str,
+                                                   message: str,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    monkey_runs = tmp_path / "runs"
+    assert main(["run", str(SLALOM), option, value.format(tmp=tmp_path), "--tree", "none"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and option in err
+    assert "waypoints" not in err and not monkey_runs.exists()
+    assert not (tmp_path / "missing").exists()  # no folder created silently
+
+
+def test_12_dot_into_a_missing_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["tree", str(SLALOM), "--dot", str(tmp_path / "no" / "t.dot")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert not (tmp_path / "no").exists()
+
+
+# --- 13: an image whose header lies ---
+
+def _png_claiming(width: int, height: int) -> bytes:
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(
+            ">I", zlib.crc32(kind + data))
+
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(
+        b"\0" * 300)) + chunk(b"IEND", b""))
+
+
+@pytest.mark.parametrize("claim", [(100_000, 100_000), (30_000, 30_000)])
+def test_13_an_image_claiming_a_huge_size_is_refused_before_decoding(
+        tmp_path: Path, claim: tuple[int, int], capsys: pytest.CaptureFixture[str]) -> None:
+    bomb = tmp_path / "bomb.png"
+    bomb.write_bytes(_png_claiming(*claim))
+    assert bomb.stat().st_size < 400
+    for argv in (["detect", str(bomb)],
+                 ["run", str(SLALOM), "--robot", "socket://127.0.0.1:9", "--camera", str(bomb),
+                  "--report", str(tmp_path / "r.json")],
+                 ["serve-camera", "--camera", str(bomb), "--port", "0"]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert f"{bomb}: PNG header claims {claim[0]} × {claim[1]} pixels" in err, argv
+
+
+# --- 14: calibration tables ---
+
+@pytest.mark.parametrize(("rows", "message"), [
+    ("1," + "9" * 140_000 + "\n", ":2: line too long"),
+    ("10,100\n20,200\n40,400\n", "grows with the radius"),
+    ("10,1e200\n11,1e100\n12,1\n", ":2: distance_mm: out of range"),
+    ("1,100\n1.0000000000000002,200\n1,300\n", "differ by less than 1 %"),
+    ('"10,100\n', ":2: expected 2 values, got 1"),
+])
+def test_14_bad_calibration_tables(tmp_path: Path, rows: str, message: str,
+                                   capsys: pytest.CaptureFixture[str]) -> None:
+    table = tmp_path / "t.csv"
+    table.write_text("radius_px,distance_mm\n" + rows, encoding="utf-8")
+    assert main(["calibrate", str(table)]) == 2
+    err = capsys.readouterr().err
+    assert f"{table}" in err and message in err, err
+
+
+def test_14_a_spreadsheet_bom_is_accepted(tmp_path: Path,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    table = tmp_path / "t.csv"
+    text = (ROOT / "tests" / "data" / "paper_table1.csv").read_text(encoding="utf-8")
+    table.write_bytes("\ufeff".encode() + text.replace("\n", "\r\n").encode())
+    assert main(["calibrate", str(table)]) == 0
+    assert "range: {model: power, a: 58957.7, b: -0.943419}" in capsys.readouterr().out

@@ -1,0 +1,246 @@
+"""Hypothesis fuzzing of every loader: missions, worlds, calibration tables, images, the CLI.
+
+The property everywhere: the input is accepted, or refused with an :class:`InputError` (exit 2
+from the CLI) — never another exception, never a traceback. Time and memory are bounded by the
+loaders' own limits (file size, YAML depth and expansion, header-claimed image size), which the
+generated inputs probe: deep nesting, alias chains, huge claimed sizes, long cells, control
+characters. CI runs few examples (``MARKNAV_FUZZ_EXAMPLES``, default 20 per test); set it higher
+for a longer hunt, e.g. ``MARKNAV_FUZZ_EXAMPLES=2000 pytest tests/test_fuzz_loaders.py``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import math
+import os
+import resource
+import struct
+import tempfile
+import zlib
+from collections.abc import Iterator
+from datetime import timedelta
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import yaml
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from marknav.cli import main
+from marknav.errors import InputError
+from marknav.missions.schema import load_mission
+from marknav.sim.world import load_world
+from marknav.vision.calibrate import fit_table
+from marknav.vision.imagefile import MAX_IMAGE_PIXELS, read_image
+
+ROOT = Path(__file__).resolve().parents[1]
+SLALOM = (ROOT / "missions" / "slalom.yaml").read_text(encoding="utf-8")
+WORLD = (ROOT / "missions" / "worlds" / "slalom-world.yaml").read_text(encoding="utf-8")
+
+#: Generous bounds (the worst input takes well under a second): an example that needs 20 s, or a
+#: test whose examples grow the process by 256 MiB, means a limit is missing.
+FUZZ = settings(max_examples=int(os.environ.get("MARKNAV_FUZZ_EXAMPLES", "20")),
+                deadline=timedelta(seconds=20),
+                suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+MAX_GROWTH_KIB = 256 * 1024
+
+
+@pytest.fixture(autouse=True)
+def bounded_memory() -> Iterator[None]:
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB on Linux
+    yield
+    grown = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before
+    assert grown < MAX_GROWTH_KIB, f"peak memory grew by {grown / 1024:.0f} MiB"
+
+
+@contextlib.contextmanager
+def file_with(data: bytes, suffix: str = "") -> Iterator[str]:
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "input" + suffix)
+        with open(path, "wb") as fh:
+            fh.write(data)
+        yield path
+
+
+# --- YAML: missions and worlds --------------------------------------------------------------
+
+scalars = st.one_of(st.none(), st.booleans(), st.integers(), st.floats(),
+                    st.text(max_size=20))
+trees = st.recursive(scalars, lambda inner: st.one_of(
+    st.lists(inner, max_size=5), st.dictionaries(st.text(max_size=10), inner, max_size=5)),
+    max_leaves=30)
+
+
+@st.composite
+def yaml_texts(draw: st.DrawFn, base: str) -> str:
+    """A real file with lines replaced, text spliced in, deep nesting or alias chains."""
+    kind = draw(st.sampled_from(["splice", "structure", "deep", "aliases", "noise"]))
+    if kind == "structure":
+        return yaml.safe_dump(draw(trees), allow_unicode=True)
+    if kind == "deep":
+        depth = draw(st.integers(1, 600))
+        opener, closer = draw(st.sampled_from([("[", "]"), ("{a: ", "}")]))
+        return "name: " + opener * depth + "1" + closer * depth + "\n"
+    if kind == "aliases":
+        levels, width = draw(st.integers(1, 12)), draw(st.integers(1, 12))
+        lines = ["a0: &a0 [" + ", ".join(["x"] * width) + "]"]
+        lines += [f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * width) + "]"
+                  for i in range(1, levels)]
+        if draw(st.booleans()):
+            lines.append("loop: &l [*l]")
+        return "\n".join(lines) + "\n"
+    if kind == "noise":
+        return draw(st.text(max_size=400))
+    lines = base.splitlines()
+    for _ in range(draw(st.integers(1, 4))):
+        i = draw(st.integers(0, len(lines) - 1))
+        lines[i] = draw(st.sampled_from([
+            "", lines[i][: draw(st.integers(0, len(lines[i])))],
+            lines[i] + draw(st.text(max_size=30)), draw(st.text(max_size=60)),
+        ]))
+    return "\n".join(lines)
+
+
+def loads_or_input_error(loader: object, data: bytes) -> None:
+    with file_with(data, ".yaml") as path:
+        try:
+            loader(path)  # type: ignore[operator]
+        except InputError as exc:
+            assert str(exc)  # names the problem (and the file)
+            assert path in str(exc) or "route" in str(exc) or str(exc)
+
+
+@FUZZ
+@given(text=yaml_texts(SLALOM), raw=st.booleans(), junk=st.binary(max_size=200))
+def test_fuzz_mission_loader(text: str, raw: bool, junk: bytes) -> None:
+    loads_or_input_error(load_mission, junk if raw else text.encode("utf-8", "surrogatepass"))
+
+
+@FUZZ
+@given(text=yaml_texts(WORLD), raw=st.booleans(), junk=st.binary(max_size=200))
+def test_fuzz_world_loader(text: str, raw: bool, junk: bytes) -> None:
+    loads_or_input_error(load_world, junk if raw else text.encode("utf-8", "surrogatepass"))
+
+
+# --- calibration tables ---------------------------------------------------------------------
+
+cells = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True).map(repr),
+    st.integers(-10**30, 10**30).map(str),
+    st.floats(1e-3, 1e4).map(lambda v: f"{v:.17g}"),
+    st.text(max_size=30),
+    st.integers(0, 200_000).map(lambda n: "9" * n),
+)
+
+
+@FUZZ
+@given(rows=st.lists(st.lists(cells, min_size=0, max_size=3), max_size=25),
+       bom=st.booleans(), crlf=st.booleans(), header=st.booleans())
+def test_fuzz_table_loader(rows: list[list[str]], bom: bool, crlf: bool, header: bool) -> None:
+    nl = "\r\n" if crlf else "\n"
+    text = ("\ufeff" if bom else "") + ("radius_px,distance_mm" + nl if header else "")
+    text += nl.join(",".join(r) for r in rows)
+    with file_with(text.encode("utf-8", "surrogatepass"), ".csv") as path:
+        try:
+            fit = fit_table(path)
+        except InputError as exc:
+            assert path in str(exc)
+        else:
+            assert math.isfinite(fit.a) and fit.a > 0 and fit.b < 0
+
+
+# --- images -----------------------------------------------------------------------------------
+
+def _encoded(ext: str) -> bytes:
+    image = np.zeros((24, 32, 3), np.uint8)
+    cv2.circle(image, (16, 12), 8, (0, 0, 255), -1)
+    ok, buf = cv2.imencode(ext, image)
+    assert ok
+    return buf.tobytes()
+
+
+ENCODED = {ext: _encoded(ext) for ext in (".png", ".jpg", ".bmp", ".tif", ".webp", ".ppm")}
+
+
+def _png_claiming(width: int, height: int) -> bytes:
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(
+            ">I", zlib.crc32(kind + data))
+
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2,
+                                                              0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(b"\0" * 64)) + chunk(b"IEND", b""))
+
+
+@st.composite
+def image_bytes(draw: st.DrawFn) -> bytes:
+    kind = draw(st.sampled_from(["mutate", "claim", "noise"]))
+    if kind == "claim":
+        return _png_claiming(draw(st.integers(0, 2**32 - 1)), draw(st.integers(0, 2**32 - 1)))
+    if kind == "noise":
+        return draw(st.binary(max_size=300))
+    data = bytearray(ENCODED[draw(st.sampled_from(sorted(ENCODED)))])
+    for _ in range(draw(st.integers(1, 8))):
+        i = draw(st.integers(0, min(len(data) - 1, 64)))  # mostly the header
+        data[i] = draw(st.integers(0, 255))
+    return bytes(data[: draw(st.integers(0, len(data)))])
+
+
+@FUZZ
+@given(data=image_bytes())
+def test_fuzz_image_loader(data: bytes) -> None:
+    with file_with(data, ".png") as path:
+        try:
+            image = read_image(path)
+        except InputError as exc:
+            assert path in str(exc)
+        else:
+            assert image.ndim == 3 and image.shape[0] * image.shape[1] <= MAX_IMAGE_PIXELS
+
+
+# --- the command line -------------------------------------------------------------------------
+
+OPTIONS = ["--max-time", "--seed", "--world", "--robot", "--camera", "--report", "--events",
+           "--plot", "--tree", "--json", "--dot", "--unicode", "--sim", "--annotate", "-v"]
+values = st.one_of(st.sampled_from(["nan", "-1", "0", "1e400", "inf", "", "sim", "runs",
+                                    "r.json", "missing/r.json", "/dev/full", "generate"]),
+                   st.text(alphabet=st.characters(blacklist_categories=("Cs",)), max_size=12))
+
+
+@pytest.fixture(scope="module")
+def workdir() -> Iterator[Path]:
+    with tempfile.TemporaryDirectory() as tmp:
+        Path(tmp, "bad.yaml").write_text("name: [\n", encoding="utf-8")
+        Path(tmp, "t.csv").write_text("radius_px,distance_mm\n1,2\n", encoding="utf-8")
+        Path(tmp, "i.png").write_bytes(_png_claiming(10**5, 10**5))
+        yield Path(tmp)
+
+
+@FUZZ
+@given(command=st.sampled_from(["run", "validate", "tree", "calibrate", "detect", "schema"]),
+       files=st.lists(st.sampled_from(["bad.yaml", "t.csv", "i.png", "none.yaml", "/dev/zero",
+                                       "."]), max_size=2),
+       options=st.lists(st.tuples(st.sampled_from(OPTIONS), values), max_size=4))
+def test_fuzz_cli_arguments(workdir: Path, command: str, files: list[str],
+                            options: list[tuple[str, str]]) -> None:
+    argv = [command, *files]
+    for option, value in options:
+        argv += [option] if option in ("--json", "--unicode", "--sim", "-v") else [option, value]
+    err = io.StringIO()
+    old = os.getcwd()
+    os.chdir(workdir)
+    try:
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            try:
+                code = main(argv)
+            except SystemExit as exc:  # argparse: usage errors and --help
+                code = int(exc.code or 0)
+    finally:
+        os.chdir(old)
+    assert code in (0, 1, 2), (argv, err.getvalue())
+    assert "Traceback" not in err.getvalue()
+    if command == "run":  # every run here has bad input: a missing or invalid mission
+        assert code == 2, (argv, err.getvalue())
