@@ -85,12 +85,15 @@ class RunReport:
 
 
 class EventLog:
-    """Append-only JSON Lines log, flushed after every event."""
+    """Append-only JSON Lines log, flushed after every event. Times never go backwards: an event
+    stamped earlier than the one before it (a safety transition seen late) is written at the
+    later time."""
 
     def __init__(self, path: str | Path | None) -> None:
         self.path = Path(path) if path is not None else None
         self._fh: TextIO | None = None
         self.count = 0
+        self._last_t = 0.0
         if self.path is not None:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._fh = open(self.path, "w", encoding="utf-8")  # noqa: SIM115 (closed in close())
@@ -99,6 +102,8 @@ class EventLog:
         self.count += 1
         if self._fh is None:
             return
+        t = max(float(t), self._last_t)
+        self._last_t = t
         record = {"t": round(t, 4), "kind": kind, **data}
         self._fh.write(json.dumps(record, default=str) + "\n")
         self._fh.flush()

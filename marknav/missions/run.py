@@ -21,6 +21,7 @@ from marknav.behaviours.route import build_route_tree, failure_reason
 from marknav.errors import InputError
 from marknav.missions.registry import BuildContext, build_tree, default_registry
 from marknav.missions.report import ABORTED, EventLog, RunReport, WaypointResult
+from marknav.missions.runlog import Recorder
 from marknav.missions.runner import Environment, RunOptions, run_tree
 from marknav.missions.schema import Mission, load_mission
 
@@ -45,6 +46,9 @@ class RunRequest:
     max_time_s: float | None = None
     randomise: bool = False  # generated worlds: random conditions and mark yaw (evaluation)
     generate_world: bool = False  # ignore the mission's sim.world: generate one from the seed
+    frames_hz: float | None = None  # save camera frames (JPEG) beside the event log this often
+    viewer: bool = False  # stream the run to a Rerun viewer (the ``viewer`` extra)
+    record_path: Path | None = None  # save a Rerun recording (.rrd)
 
 
 @dataclass
@@ -129,19 +133,6 @@ def make_environment(mission: Mission, req: RunRequest, seed: int) -> Environmen
     return HardwareEnvironment(driver, camera)
 
 
-def status_line(env: Environment) -> str:
-    """``t=12.3 s  target red #1 at 1234 mm  safety driving``."""
-    bb = py_trees.blackboard.Blackboard
-    target = bb.get(keys.TARGET) if bb.exists(keys.TARGET) else None
-    parts = [f"t={env.clock.now():.2f} s"]
-    if target is not None:
-        s = target.sighting
-        where = f" at {s.range_mm:.0f} mm" if s is not None else " (not seen)"
-        parts.append(f"target {target.label} (pass on its {target.side}){where}")
-    parts.append(f"safety {env.robot.safety_state}")
-    return "  ".join(parts)
-
-
 def waypoint_outcomes(mission: Mission, report: RunReport) -> list[str]:
     bb = py_trees.blackboard.Blackboard
     passed = bb.get(keys.PASSED) if bb.exists(keys.PASSED) else ()
@@ -185,19 +176,19 @@ def execute(req: RunRequest) -> RunResult:
         waypoints=[WaypointResult(colour=c, side=mission.side_of(c)) for c in mission.route],
     )
     events = EventLog(req.events_path)
-    options = RunOptions(
-        rate_hz=mission.control.rate_hz,
-        max_time_s=req.max_time_s if req.max_time_s is not None else default_max_time_s(mission),
-        realtime=req.realtime, sleep=req.robot != "sim",
-        tree_style=req.tree_style, view_out=req.out,
-    )
     result = RunResult(report=report, environment=env)
     try:
+        recorder = _recorder(req, root, env, events)
+        options = RunOptions(
+            rate_hz=mission.control.rate_hz,
+            max_time_s=(req.max_time_s if req.max_time_s is not None
+                        else default_max_time_s(mission)),
+            realtime=req.realtime, sleep=req.robot != "sim", observer=recorder,
+        )
         run_tree(
             root, env, report, events, options,
             setup_kwargs={"robot": env.robot, "clock": env.clock, "mission": mission,
                           "camera": env.camera},
-            status_line=lambda: status_line(env),
             waypoint_outcomes=lambda: waypoint_outcomes(mission, report),
             classify=_classify,
         )
@@ -215,6 +206,26 @@ def execute(req: RunRequest) -> RunResult:
     return result
 
 
+def _recorder(req: RunRequest, root: py_trees.behaviour.Behaviour, env: Environment,
+              events: EventLog) -> Recorder | None:
+    """The run log's recorder, with the live view and the Rerun recording when asked for."""
+    from marknav.missions.display import make_view
+
+    sinks: list[Any] = []
+    if req.viewer or req.record_path is not None:
+        from marknav.missions.viewer import RerunSink
+
+        sinks.append(RerunSink(req.mission, getattr(env, "world", None), spawn=req.viewer,
+                               path=req.record_path))
+    view = make_view(req.out, req.tree_style, title=f"marknav run {req.mission.name}")
+    if view is None and not sinks and events.path is None:
+        return None
+    mission = req.mission
+    return Recorder(root, env, events, mission=mission, view=view, sinks=sinks,
+                    frames_hz=req.frames_hz,
+                    finish=lambda report: _fill_ground_truth(mission, env, report))
+
+
 def _classify(root: py_trees.behaviour.Behaviour) -> tuple[bool, str]:
     failure = failure_reason(root)
     if failure is None:
@@ -222,11 +233,13 @@ def _classify(root: py_trees.behaviour.Behaviour) -> tuple[bool, str]:
     return failure.aborted, failure.reason
 
 
-def _fill_ground_truth(mission: Mission, env: Environment, report: RunReport) -> None:
+def _fill_ground_truth(mission: Mission, env: Environment, report: RunReport) -> dict[str, Any]:
+    """Ground truth into the report (simulator only); returns the run log's extra figures:
+    collision points and the world mark each waypoint was matched to."""
     from marknav.sim.environment import SimEnvironment, waypoint_truth
 
     if not isinstance(env, SimEnvironment):
-        return
+        return {}
     truth = waypoint_truth(env.truth, env.world, list(mission.route), pass_times(mission))
     for wp, (side, clearance, _idx) in zip(report.waypoints, truth, strict=True):
         wp.passed_on = side
@@ -237,6 +250,8 @@ def _fill_ground_truth(mission: Mission, env: Environment, report: RunReport) ->
         "oi_mode": env.create.mode.name.lower(),
         "stream": bool(env.create.streaming),
     }
+    return {"collision_points": list(env.truth.collisions),
+            "waypoint_marks": [idx for _s, _c, idx in truth]}
 
 
 def _plot(mission: Mission, env: Environment, result: RunResult, path: Path) -> None:
