@@ -197,12 +197,12 @@ def execute(req: RunRequest) -> RunResult:
             env.close()
         finally:
             result.plans = recorded_plans()
-            _fill_ground_truth(mission, env, report)
+            extra = _fill_ground_truth(mission, env, report)
             events.close()
             if req.report_path is not None:
                 report.write(req.report_path)
             if req.plot_path is not None:
-                _plot(mission, env, result, req.plot_path)
+                _plot(mission, env, result, req.plot_path, extra.get("waypoint_marks"))
     return result
 
 
@@ -254,14 +254,16 @@ def _fill_ground_truth(mission: Mission, env: Environment, report: RunReport) ->
             "waypoint_marks": [idx for _s, _c, idx in truth]}
 
 
-def _plot(mission: Mission, env: Environment, result: RunResult, path: Path) -> None:
+def _plot(mission: Mission, env: Environment, result: RunResult, path: Path,
+          waypoint_marks: list[int | None] | None = None) -> None:
     from marknav.sim.environment import SimEnvironment
     from marknav.sim.plot import plot_run
 
     if not isinstance(env, SimEnvironment):
         raise InputError("--plot draws the simulator's ground truth; it needs --robot sim",
                          field="--plot")
-    plot_run(mission, env.world, env.truth, result.plans, result.report, path)
+    plot_run(mission, env.world, env.truth, result.plans, result.report, path,
+             waypoint_marks=waypoint_marks)
 
 
 def load(path: str) -> Mission:

@@ -193,7 +193,8 @@ class Recorder:
         out["camera_hz"] = (round((len(ft) - 1) / (ft[-1] - ft[0]), 1)
                             if len(ft) > 2 and ft[-1] > ft[0] else None)
         out["overruns"] = overruns
-        out["active"] = self.state.active_path().split(" / ")[-1]
+        out["active"] = (self.state.active_path().split(" / ")[-1]
+                         if self.root.status.value == "RUNNING" else "finished")
         return out
 
     # -- internals ---------------------------------------------------------------------------

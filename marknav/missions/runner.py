@@ -279,6 +279,9 @@ def run_tree(
             {**ev, "t": round(max(0.0, float(ev["t"]) - t0), 4)} if "t" in ev else dict(ev)
             for ev in env.safety_events()
         ]
+        for ev in report.safety_events[n_safety:]:  # the stop above, a late fault
+            events.write(ev.get("t", report.sim_time_s), "safety",
+                         **{k: v for k, v in ev.items() if k != "t"})
         if observer is not None:
             try:
                 observer.finish(report)

@@ -183,7 +183,9 @@ class TreeState:
         rows: list[tuple[str, str]] = []
 
         def walk(i: int, depth: int) -> None:
-            open_ = i == 0 or (self.children[i] and self.status[i] == RUNNING)
+            finished = self.status[0] in (SUCCESS, FAILURE)
+            open_ = (i == 0 or (self.children[i] and self.status[i] == RUNNING)
+                     or (finished and depth == 1 and len(self.children[i]) > 2))
             rows.append(self._line(i, depth, style, folded=bool(self.children[i]) and not open_))
             if not open_:
                 return

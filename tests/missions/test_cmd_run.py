@@ -140,4 +140,14 @@ def test_interrupt_stops_the_wheels_and_writes_the_report(tmp_path: Path, sig: i
     assert report["reason"].startswith("interrupted")
     assert report["sim_final"] == {"wheels_mm_s": [0, 0], "oi_mode": "passive", "stream": False}
     assert events_path.read_text().splitlines()[-1].startswith('{"t"')
-    assert json.loads(events_path.read_text().splitlines()[-1])["kind"] == "end"
+    records = [json.loads(line) for line in events_path.read_text().splitlines()]
+    # The run log ends with the abort: the last tick, the wheels' stop, the report, the end.
+    kinds = [r["kind"] for r in records]
+    last_tick = max(i for i, k in enumerate(kinds) if k == "tick")
+    assert kinds[-2:] == ["report", "end"]
+    assert set(kinds[last_tick + 1:-2]) == {"safety"}
+    assert records[-3]["event"] == "stop"
+    assert records[-1]["outcome"] == "aborted"
+    assert records[-1]["reason"].startswith("interrupted")
+    assert records[-2]["report"]["outcome"] == "aborted"
+    assert records[-1]["ticks"] == records[last_tick]["n"] + 1 == report["ticks"]
