@@ -144,7 +144,7 @@ def _interactive(run: object, style: str) -> None:
 
 
 def view(args: argparse.Namespace) -> int:
-    from marknav.missions.viewer import require_rerun
+    from marknav.missions.viewer import require_display, require_rerun
 
     require_rerun("view")  # also sets RERUN_ANALYTICS=0 unless the user chose otherwise
     path = Path(args.run)
@@ -155,6 +155,7 @@ def view(args: argparse.Namespace) -> int:
             shutil.copyfile(path, args.save)
             print(f"recording: {args.save}")
             return 0
+        require_display("view")
         return _open_viewer(path)
     from marknav.missions.runlog import read_log, resolve_log
     from marknav.missions.viewer import log_to_recording
@@ -166,6 +167,7 @@ def view(args: argparse.Namespace) -> int:
         sink.close()
         print(f"recording: {args.save} ({sink.ticks} ticks, {sink.frames} frames)")
         return 0
+    require_display("view")
     sink = log_to_recording(log_path, records, spawn=True)
     sink.close()
     return 0

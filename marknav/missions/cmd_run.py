@@ -73,9 +73,11 @@ def run(args: argparse.Namespace) -> int:
     if args.frames is not None and not args.frames > 0:
         raise InputError(f"must be positive, got {args.frames}", field="--frames")
     if args.viewer or args.record is not None:
-        from marknav.missions.viewer import require_rerun
+        from marknav.missions.viewer import require_display, require_rerun
 
         require_rerun("--viewer" if args.viewer else "--record")
+        if args.viewer:
+            require_display("--viewer")
     mission = load_mission(args.mission)
     report_path: Path = args.report or default_run_dir(mission) / "report.json"
     events_path: Path = args.events or report_path.with_name(report_path.stem + ".events.jsonl")

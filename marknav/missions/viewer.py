@@ -19,6 +19,7 @@ yourself to allow it).
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -40,6 +41,15 @@ def require_rerun(option: str) -> Any:
         raise InputError(f"needs the Rerun SDK, which is not installed: {EXTRA_HINT}",
                          field=option) from None
     return rr
+
+
+def require_display(option: str) -> None:
+    """The viewer is a desktop window: InputError (exit 2) on a Linux machine without one."""
+    if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY")
+                                                 or os.environ.get("WAYLAND_DISPLAY")):
+        raise InputError("the Rerun viewer needs a display (neither DISPLAY nor WAYLAND_DISPLAY "
+                         "is set); save a recording with --record FILE.rrd and open it with "
+                         "'marknav view FILE.rrd' where there is one", field=option)
 
 
 def _rgb(bgr: Any) -> list[int]:
