@@ -193,3 +193,32 @@ def test_v_shows_marknav_info_but_not_library_chatter(
     err = capsys.readouterr().err
     assert "INFO marknav.drivers.driver: connected to create2" in err
     assert "transitions" not in err
+
+
+@pytest.mark.skipif(not hasattr(os, "openpty"), reason="needs POSIX ptys")
+def test_a_robot_run_logs_run_relative_times_and_camera_frames(tmp_path: Path) -> None:
+    """The real-robot path (driver over a pseudo-terminal, a still image as the camera, the
+    monotonic clock): safety events in run time, not the raw monotonic clock; frames saved."""
+    from marknav.clock import MonotonicClock
+    from marknav.sim.create import SimulatedCreate
+    from marknav.sim.pty import PtyServer
+
+    image = ROOT / "tests" / "data" / "smarties.png"
+    with PtyServer(SimulatedCreate(clock=MonotonicClock())) as server:
+        port = server.start()
+        code = main(["run", str(SLALOM), "--robot", port, "--camera", str(image),
+                     "--tree", "none", "--max-time", "1.5", "--frames", "4",
+                     "--report", str(tmp_path / "r.json")])
+    assert code == 1  # the time limit: the still image shows no slalom marks
+    records = read_log(tmp_path / "r.events.jsonl")
+    times = [r["t"] for r in records]
+    assert times == sorted(times) and times[-1] < 5.0
+    safety = [r for r in records if r["kind"] == "safety"]
+    assert safety and all(0.0 <= r["t"] <= times[-1] for r in safety)
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert all(0.0 <= e["t"] <= times[-1] for e in report["safety_events"])
+    ticks = [r for r in records if r["kind"] == "tick"]
+    assert ticks and all("pose" in r and "truth" not in r for r in ticks)
+    saved = [r["image"] for r in records if r["kind"] == "frame" and "image" in r]
+    assert 3 <= len(saved) <= 8  # 4 Hz over 1.5 s
+    assert (tmp_path / saved[0]).read_bytes()[:2] == b"\xff\xd8"
