@@ -32,8 +32,11 @@ KIND_SYMBOLS = {
               "leaf": ""},
 }
 FOLD = {"unicode": "▸", "ascii": "::"}
+#: A failure its selector is handling (a condition that is simply false, e.g. ``Passed?``).
+HANDLED = "HANDLED"
 #: rich styles per status (the live view and replay; plain text ignores them).
-STATUS_STYLE = {RUNNING: "bold yellow", SUCCESS: "green", FAILURE: "red", INVALID: "dim"}
+STATUS_STYLE = {RUNNING: "bold yellow", SUCCESS: "green", FAILURE: "bold red", INVALID: "dim",
+                HANDLED: "dim red"}
 
 
 def kind_of(node: py_trees.behaviour.Behaviour) -> str:
@@ -152,7 +155,8 @@ class TreeState:
         return found
 
     def lines(self, *, style: str = "unicode", max_rows: int = 25) -> list[tuple[str, str]]:
-        """The drawing as ``(text, status)`` rows, at most ``max_rows`` of them."""
+        """The drawing as ``(text, status)`` rows, at most ``max_rows`` of them (``status`` is
+        :data:`HANDLED` for a failure its selector is handling)."""
         if not self.names:
             return []
         rows = self._draw(style, group=False)
@@ -177,6 +181,10 @@ class TreeState:
         else:
             msg = self.message[i]
         dash = " — " if style == "unicode" else " -- "
+        p = self.parents[i]
+        if (st == FAILURE and p >= 0 and self.kinds[p] == "selector"
+                and self.status[p] != FAILURE):
+            st = HANDLED  # drawn dim: the selector goes on with its next child
         return (head + (dash + msg if msg else ""), st)
 
     def _draw(self, style: str, *, group: bool) -> list[tuple[str, str]]:

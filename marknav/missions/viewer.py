@@ -8,6 +8,8 @@ Entities (timeline ``run``: seconds since the run started; ``tick``: the tick nu
   (odometry, every tick), ``map/truth`` (the simulator's true pose), ``map/path/*`` (the driven
   path), ``map/plan/*`` (each bypass plan, odometry frame), ``map/seen`` (marks placed from the
   latest frame);
+  Rerun's 2D views draw y downwards, so the map is logged with y negated (north is up on
+  screen, and a mark passed on its left looks it);
 - ``plots/range_mm``, ``plots/bearing_deg``, ``plots/wheels/left``, ``plots/wheels/right``;
 - ``tree`` (the compact tree as text, every tick), ``events`` (status and safety changes).
 
@@ -52,6 +54,22 @@ def require_display(option: str) -> None:
                          "'marknav view FILE.rrd' where there is one", field=option)
 
 
+def _up(xy: Any) -> list[float]:
+    """World (x, y) for a 2D view whose y points down: north up on screen."""
+    return [float(xy[0]), -float(xy[1])]
+
+
+def _blueprint(rr: Any) -> Any:
+    rrb = rr.blueprint
+    return rrb.Blueprint(rrb.Horizontal(
+        rrb.Vertical(rrb.Spatial2DView(origin="camera", name="camera"),
+                     rrb.TimeSeriesView(origin="plots", name="range, bearing, wheels")),
+        rrb.Spatial2DView(origin="map", name="map (north up)"),
+        rrb.Vertical(rrb.TextDocumentView(origin="tree", name="tree"),
+                     rrb.TextLogView(origin="events", name="events")),
+        column_shares=[2, 2, 2]))
+
+
 def _rgb(bgr: Any) -> list[int]:
     b, g, r = (int(v) for v in bgr[:3])
     return [r, g, b]
@@ -75,7 +93,7 @@ class RerunSink:
             sinks.append(rr.GrpcSink())
         if sinks:
             try:
-                self.rec.set_sinks(*sinks)
+                self.rec.set_sinks(*sinks, default_blueprint=_blueprint(rr))
             except Exception as exc:
                 raise InputError(f"cannot start the recording: {exc}",
                                  file=str(path) if path is not None else None) from None
@@ -108,16 +126,18 @@ class RerunSink:
         marks = world.get("marks", [])
         if marks:
             rec.log("map/marks", rr.Ellipses2D(
-                centers=[m["xy"] for m in marks],
+                centers=[_up(m["xy"]) for m in marks],
                 half_sizes=[[m["radius_mm"], m["radius_mm"]] for m in marks],
                 colors=[self.colours.get(m["colour"], [128, 128, 128]) for m in marks],
                 labels=[f"{i + 1}: {m['colour']}" for i, m in enumerate(marks)]), static=True)
         if world.get("walls"):
             rec.log("map/walls", rr.LineStrips2D(
-                [[w[:2], w[2:]] for w in world["walls"]], colors=[[90, 90, 90]]), static=True)
+                [[_up(w[:2]), _up(w[2:])] for w in world["walls"]], colors=[[90, 90, 90]]),
+                static=True)
         if world.get("boxes"):
             rec.log("map/boxes", rr.LineStrips2D(
-                [[*b, b[0]] for b in world["boxes"]], colors=[[160, 160, 160]]), static=True)
+                [[_up(c) for c in [*b, b[0]]] for b in world["boxes"]],
+                colors=[[160, 160, 160]]), static=True)
 
     # -- per tick ----------------------------------------------------------------------------
     def tick(self, now: float, record: dict[str, Any], frames: list[tuple[dict[str, Any], Any]],
@@ -129,20 +149,20 @@ class RerunSink:
             self._frame(fr, image)
         pose = record.get("pose")
         if pose is not None:
-            rec.log("map/robot", rr.Points2D([pose[:2]], radii=[60.0], colors=[[30, 30, 30]]))
-            self._path.append(pose[:2])
+            rec.log("map/robot", rr.Points2D([_up(pose)], radii=[60.0], colors=[[30, 30, 30]]))
+            self._path.append(_up(pose))
             k = (len(self._path) - 1) // PATH_CHUNK
             if len(self._path) % 5 == 0 or len(self._path) % PATH_CHUNK == 1:
                 strip = self._path[k * PATH_CHUNK - (1 if k else 0):]
                 rec.log(f"map/path/{k}", rr.LineStrips2D([strip], colors=[[0, 0, 0]]))
         truth = record.get("truth")
         if truth is not None:
-            rec.log("map/truth", rr.Points2D([truth[:2]], radii=[40.0], colors=[[0, 160, 0]]))
+            rec.log("map/truth", rr.Points2D([_up(truth)], radii=[40.0], colors=[[0, 160, 0]]))
         for plan in record.get("bb", {}).get("/marknav/plans", []):
             pts = plan.get("plan", {}).get("points", [])
             if pts:
                 rec.log(f"map/plan/{self._plans}", rr.LineStrips2D(
-                    [pts], colors=[[148, 0, 211]],
+                    [[_up(p) for p in pts]], colors=[[148, 0, 211]],
                     labels=[f"#{plan.get('waypoint', -1) + 1} {plan.get('reason', '')}"]))
                 self._plans += 1
         panel = record.get("panel", {})
@@ -179,7 +199,7 @@ class RerunSink:
                     else m["colour"] for m in marks]))
         seen = [m for m in marks if "world" in m]
         rec.log("map/seen", rr.Points2D(
-            [m["world"] for m in seen], radii=[50.0] * len(seen),
+            [_up(m["world"]) for m in seen], radii=[50.0] * len(seen),
             colors=[self.colours.get(m["colour"], [255, 255, 255]) for m in seen]))
         self.frames += 1
 
