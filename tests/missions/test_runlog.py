@@ -222,3 +222,44 @@ def test_a_robot_run_logs_run_relative_times_and_camera_frames(tmp_path: Path) -
     saved = [r["image"] for r in records if r["kind"] == "frame" and "image" in r]
     assert 3 <= len(saved) <= 8  # 4 Hz over 1.5 s
     assert (tmp_path / saved[0]).read_bytes()[:2] == b"\xff\xd8"
+
+
+@pytest.mark.skipif(not hasattr(os, "openpty"), reason="needs POSIX ptys")
+def test_interactive_replay_steps_jumps_and_quits_on_a_terminal(
+        slalom_run: dict[str, Any]) -> None:
+    import select
+    import time
+
+    replay = Replay(slalom_run["records"])
+    master, slave = os.openpty()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "marknav", "replay", str(slalom_run["folder"]), "--tree",
+         "ascii"], stdin=slave, stdout=slave, stderr=slave,
+        env={**os.environ, "TERM": "xterm", "COLUMNS": "160", "LINES": "50"})
+    os.close(slave)
+    seen = b""
+
+    def wait_for(text: str) -> None:
+        nonlocal seen
+        deadline = time.monotonic() + 60
+        while text.encode() not in seen:
+            assert time.monotonic() < deadline, f"no {text!r} in {seen[-500:]!r}"
+            ready, _, _ = select.select([master], [], [], 0.2)
+            if ready:
+                seen += os.read(master, 65536)
+
+    try:
+        wait_for("replay: tick 0/")
+        os.write(master, b"\n")  # one tick
+        wait_for("replay: tick 1/")
+        os.write(master, b"c\n")  # the next status change
+        wait_for(f"replay: tick {replay.next_change(1)}/")
+        os.write(master, b"j 14.2\n")
+        k = replay.index_at(14.2)
+        wait_for(f"t={replay.times[k]:.2f} s  tick {k}")
+        os.write(master, b"q\n")
+        assert proc.wait(timeout=30) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        os.close(master)
