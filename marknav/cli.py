@@ -27,6 +27,7 @@ COMMANDS: tuple[str, ...] = (
     "marknav.missions.cmd_validate",
     "marknav.missions.cmd_tree",
     "marknav.missions.cmd_evaluate",
+    "marknav.missions.cmd_replay",
     "marknav.benchmarks",
     "marknav.vision.cmd_detect",
     "marknav.vision.cmd_calibrate",
@@ -49,12 +50,29 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"marknav {__version__}")
     parser.add_argument(
-        "-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)"
+        "-v", "--verbose", action="count", default=0,
+        help="more log output: -v marknav's own messages (INFO), -vv debug messages and "
+             "the libraries' (py_trees, transitions) too"
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMANDS:
         importlib.import_module(name).register(sub)
     return parser
+
+
+def configure_logging(verbosity: int) -> None:
+    """Log to stderr: marknav's loggers at WARNING, INFO (-v) or DEBUG (-vv); other libraries'
+    (transitions logs every state callback at INFO) stay at WARNING unless -vv."""
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("%(levelname)s %(name)s: %(message)s"))
+    handler._marknav = True  # type: ignore[attr-defined]
+    root = logging.getLogger()
+    for old in [h for h in root.handlers if getattr(h, "_marknav", False)]:
+        root.removeHandler(old)
+    root.addHandler(handler)
+    root.setLevel(logging.DEBUG if verbosity >= 2 else logging.WARNING)
+    logging.getLogger("marknav").setLevel(
+        (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbosity, 2)])
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -75,10 +93,7 @@ def _main(argv: Sequence[str] | None) -> int:
 
     parser = build_parser()
     args = parser.parse_args(argv)
-    logging.basicConfig(
-        level=(logging.WARNING, logging.INFO, logging.DEBUG)[min(args.verbose, 2)],
-        format="%(levelname)s %(name)s: %(message)s",
-    )
+    configure_logging(args.verbose)
     if args.command is None:
         parser.print_help()
         return EXIT_BAD_INPUT

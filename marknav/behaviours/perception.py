@@ -42,7 +42,7 @@ from marknav.drivers.robot import WheelCalibratable
 from marknav.planning.kinematics import Pose, to_world_frame
 from marknav.planning.wheel_ratio import WheelRatioCalibrator, WheelRatioStep
 from marknav.vision.estimate import Pinhole, PowerLaw, RangeModel, estimate
-from marknav.vision.sources import FrameSource
+from marknav.vision.sources import Frame, FrameSource
 
 if TYPE_CHECKING:
     from marknav.missions.schema import Mission
@@ -98,6 +98,7 @@ class PerceptionBase(MarknavBehaviour):
         self._last_frame_t: float | None = None  # mission time of the last frame (or first wait)
         self._half_fov: tuple[Mission, float] | None = None
         self.frames = 0
+        self._frame_message = ""
 
     def observe(self) -> Observation | None:  # pragma: no cover - abstract
         raise NotImplementedError
@@ -120,7 +121,12 @@ class PerceptionBase(MarknavBehaviour):
                 self.feedback_message = (f"holding: no new frame for {silent:.2f} s "
                                          f"(camera lost after {self.camera_timeout_s:g} s)")
                 return Status.RUNNING
-            self.feedback_message = f"no new frame for {silent:.2f} s"
+            if silent >= 0.5 * self.camera_timeout_s:
+                self.feedback_message = f"no new frame for {silent:.2f} s"
+            elif self.frames == 0:
+                self.feedback_message = f"waiting for the first frame ({silent:.2f} s)"
+            else:  # between frames (the camera is slower than the tick): nothing is wrong
+                self.feedback_message = f"{self._frame_message} ({silent:.2f} s ago)"
             return Status.SUCCESS
         self._last_frame_t = now
         self.frames += 1
@@ -152,7 +158,7 @@ class PerceptionBase(MarknavBehaviour):
         if len(obs.marks) > len(shown):
             seen += f" (+{len(obs.marks) - len(shown)} more)"
         focus = f"; target {target.label}: {describe(sighting)}" if target is not None else ""
-        self.feedback_message = f"frame {obs.frame.index}: {seen}{focus}"
+        self.feedback_message = self._frame_message = f"frame {obs.frame.index}: {seen}{focus}"
 
     def half_fov_rad(self) -> float | None:
         """Half the camera's horizontal field of view (from the mission), if known."""
@@ -193,6 +199,9 @@ class Perception(PerceptionBase):
         self._range_model: RangeModel | None = None
         self._mark_radius_mm: float | None = None
         self._last_index: int | None = None
+        #: The latest frame processed and its detections (pixels), for the run log and viewer.
+        self.last_frame: Frame | None = None
+        self.last_detections: tuple[Mark, ...] = ()
         self._calibrator: WheelRatioCalibrator | None = None
         #: Wheel-ratio corrections applied so far (newest last).
         self.wheel_calibrations: list[WheelRatioStep] = []
@@ -239,6 +248,7 @@ class Perception(PerceptionBase):
         height, width = frame.image.shape[:2]
         t = self.now()
         found: list[Mark] = list(self._detector.detect(frame.image))
+        self.last_frame, self.last_detections = frame, tuple(found)
         robot = self.robot
         calibrated = (robot if self._calibrator is not None
                       and isinstance(robot, WheelCalibratable) else None)

@@ -16,9 +16,13 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         help="run a mission (simulator by default)",
         description=(
             "Run MISSION's behaviour tree at control.rate_hz. With no --robot/--camera the "
-            "built-in simulator is the robot and the camera. The tree is printed whenever it "
-            "changes. The run report and a JSON Lines event log are written even when the run "
-            "fails or is interrupted (default folder: runs/NAME-TIME/)."
+            "built-in simulator is the robot and the camera. On a terminal the tree and a status "
+            "panel are redrawn in place every tick; piped, the tree is printed whenever a status "
+            "changes. The run report and the complete run log (JSON Lines: every tick's status "
+            "changes, poses, detections, wheel commands, safety events; 'marknav replay' reads "
+            "it) are written as the run goes, also when it fails or is interrupted (default "
+            "folder: runs/NAME-TIME/). --viewer/--record need the 'viewer' extra (Rerun); "
+            "marknav turns Rerun's anonymous usage analytics off (RERUN_ANALYTICS=0)."
         ),
     )
     p.add_argument("mission", metavar="MISSION", help="mission YAML file")
@@ -33,13 +37,23 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--camera", default="sim", metavar="sim|INDEX|PATH|URL",
                    help="'sim', a camera index, a video file, an image folder or an http:// "
                         "MJPEG stream")
-    p.add_argument("--tree", default="ascii", choices=("ascii", "unicode", "none"),
-                   help="how to show the tree as it changes (default ascii)")
+    p.add_argument("--tree", default="auto", choices=("auto", "ascii", "unicode", "none"),
+                   help="how to draw the tree (default auto: unicode where the terminal "
+                        "can show it)")
     p.add_argument("--report", metavar="FILE.json", type=Path, help="run report path")
     p.add_argument("--events", metavar="FILE.jsonl", type=Path,
                    help="event log path (default: beside the report)")
     p.add_argument("--plot", metavar="FILE.png", type=Path,
                    help="top-down picture of the run (simulator only)")
+    p.add_argument("--frames", type=float, metavar="HZ",
+                   help="also save camera frames as JPEG files beside the run log, at most HZ "
+                        "per second (e.g. 2), so a real-robot run can be looked at afterwards")
+    p.add_argument("--viewer", action="store_true",
+                   help="stream the run live to the Rerun viewer: camera with detections, "
+                        "top-down map, range and wheel plots, tree status (extra: viewer)")
+    p.add_argument("--record", metavar="FILE.rrd", type=Path,
+                   help="save a Rerun recording of the run without opening a viewer "
+                        "('marknav view FILE.rrd' opens it; extra: viewer)")
     p.add_argument("--seed", type=int, help="simulator seed (default: the mission's sim.seed)")
     p.add_argument("--realtime", action="store_true",
                    help="pace the simulator at wall-clock speed")
@@ -74,6 +88,14 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"must be positive, got {args.max_time}", field="--max-time")
     if args.seed is not None and args.seed < 0:
         raise InputError(f"must be ≥ 0, got {args.seed}", field="--seed")
+    if args.frames is not None and not args.frames > 0:
+        raise InputError(f"must be positive, got {args.frames}", field="--frames")
+    if args.viewer or args.record is not None:
+        from marknav.missions.viewer import require_display, require_rerun
+
+        require_rerun("--viewer" if args.viewer else "--record")
+        if args.viewer:
+            require_display("--viewer")
     check_outputs(args)
     overrides = parse_overrides(args.overrides)
     world = None if args.world in (None, "generate", "random") else args.world
@@ -91,7 +113,8 @@ def run(args: argparse.Namespace) -> int:
         camera=args.camera, generate_world=generated, randomise=args.world == "random",
         tree_style=args.tree, out=sys.stdout, report_path=report_path,
         events_path=events_path, plot_path=args.plot, seed=args.seed,
-        realtime=args.realtime, max_time_s=args.max_time,
+        realtime=args.realtime, max_time_s=args.max_time, frames_hz=args.frames,
+        viewer=args.viewer, record_path=args.record,
     )
 
     def written() -> str:
@@ -129,7 +152,10 @@ def run(args: argparse.Namespace) -> int:
             truth = f"; ground truth: {side}, closest {wp.min_clearance_mm:.0f} mm"
         print(f"  {i}. {wp.colour} (pass on its {wp.side}): {wp.outcome}{truth}")
     if req.written:
-        print(written())
+        line = written()
+        if args.record is not None and args.record.exists():
+            line += f"  recording: {printable(str(args.record))}"
+        print(line)
     if req.write_errors:
         write_errors()
         return 2

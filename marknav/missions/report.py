@@ -107,7 +107,8 @@ class EventLog:
 
     Opening it raises ``OSError`` (check the path first: :mod:`marknav.outputs`). A write that
     fails later (a full disk: ENOSPC) never stops the run: the log stops there, and
-    :attr:`error` says why.
+    :attr:`error` says why. Times never go backwards: an event stamped earlier than the one
+    before it (a safety transition seen late) is written at the later time.
     """
 
     def __init__(self, path: str | Path | None) -> None:
@@ -115,6 +116,7 @@ class EventLog:
         self._fh: TextIO | None = None
         self.count = 0
         self.error: str | None = None
+        self._last_t = 0.0
         if self.path is not None:
             self._fh = open(self.path, "w", encoding="utf-8")  # noqa: SIM115 (closed in close())
 
@@ -122,6 +124,8 @@ class EventLog:
         self.count += 1
         if self._fh is None:
             return
+        t = max(float(t), self._last_t)
+        self._last_t = t
         record = {"t": round(t, 4), "kind": kind, **data}
         try:
             self._fh.write(json.dumps(record, default=str) + "\n")

@@ -21,6 +21,7 @@ from marknav.behaviours.route import build_route_tree, failure_reason
 from marknav.errors import InputError
 from marknav.missions.registry import BuildContext, build_tree
 from marknav.missions.report import ABORTED, EventLog, RunReport, WaypointResult
+from marknav.missions.runlog import Recorder
 from marknav.missions.runner import Environment, RunOptions, run_tree
 from marknav.missions.schema import Mission, load_mission
 
@@ -48,6 +49,9 @@ class RunRequest:
     write_errors: list[str] = field(default_factory=list)
     randomise: bool = False  # generated worlds: random conditions and mark yaw (evaluation)
     generate_world: bool = False  # ignore the mission's sim.world: generate one from the seed
+    frames_hz: float | None = None  # save camera frames (JPEG) beside the event log this often
+    viewer: bool = False  # stream the run to a Rerun viewer (the ``viewer`` extra)
+    record_path: Path | None = None  # save a Rerun recording (.rrd)
 
 
 @dataclass
@@ -133,19 +137,6 @@ def make_environment(mission: Mission, req: RunRequest, seed: int) -> Environmen
     return HardwareEnvironment(driver, camera)
 
 
-def status_line(env: Environment) -> str:
-    """``t=12.3 s  target red #1 at 1234 mm  safety driving``."""
-    bb = py_trees.blackboard.Blackboard
-    target = bb.get(keys.TARGET) if bb.exists(keys.TARGET) else None
-    parts = [f"t={env.clock.now():.2f} s"]
-    if target is not None:
-        s = target.sighting
-        where = f" at {s.range_mm:.0f} mm" if s is not None else " (not seen)"
-        parts.append(f"target {target.label} (pass on its {target.side}){where}")
-    parts.append(f"safety {env.robot.safety_state}")
-    return "  ".join(parts)
-
-
 def waypoint_outcomes(mission: Mission, report: RunReport) -> list[str]:
     bb = py_trees.blackboard.Blackboard
     passed = bb.get(keys.PASSED) if bb.exists(keys.PASSED) else ()
@@ -207,18 +198,17 @@ def execute(req: RunRequest) -> RunResult:
         keys.reset()
         env = make_environment(mission, req, seed)
         result = RunResult(report=report, environment=env)
+        recorder = _recorder(req, root, env, events)
         options = RunOptions(
             rate_hz=mission.control.rate_hz,
             max_time_s=(req.max_time_s if req.max_time_s is not None
                         else default_max_time_s(mission)),
-            realtime=req.realtime, sleep=req.robot != "sim",
-            tree_style=req.tree_style, view_out=req.out,
+            realtime=req.realtime, sleep=req.robot != "sim", observer=recorder,
         )
         run_tree(
             root, env, report, events, options,
             setup_kwargs={"robot": env.robot, "clock": env.clock, "mission": mission,
                           "camera": env.camera},
-            status_line=lambda: status_line(env) if env is not None else "",
             waypoint_outcomes=lambda: waypoint_outcomes(mission, report),
             classify=_classify,
         )
@@ -243,6 +233,7 @@ def _finish(req: RunRequest, mission: Mission, env: Environment | None,
     """Close the environment, complete and write the report and the log, draw the plot.
     An exception from the ground truth (a bug) is raised again once the files are written."""
     failure: Exception | None = None
+    extra: dict[str, Any] = {}
     try:
         if env is not None:
             env.close()
@@ -250,7 +241,7 @@ def _finish(req: RunRequest, mission: Mission, env: Environment | None,
         if env is not None and result is not None:
             result.plans = recorded_plans()
             try:
-                _fill_ground_truth(mission, env, report)
+                extra = _fill_ground_truth(mission, env, report)
             except Exception as exc:
                 failure = exc
         events.close()
@@ -268,7 +259,7 @@ def _finish(req: RunRequest, mission: Mission, env: Environment | None,
                                         f"{exc.strerror or exc}")
         if req.plot_path is not None and env is not None and result is not None:
             try:
-                _plot(mission, env, result, req.plot_path)
+                _plot(mission, env, result, req.plot_path, extra.get("waypoint_marks"))
                 req.written.append(req.plot_path)
             except InputError as exc:
                 req.write_errors.append(str(exc))
@@ -279,6 +270,26 @@ def _finish(req: RunRequest, mission: Mission, env: Environment | None,
             raise failure
 
 
+def _recorder(req: RunRequest, root: py_trees.behaviour.Behaviour, env: Environment,
+              events: EventLog) -> Recorder | None:
+    """The run log's recorder, with the live view and the Rerun recording when asked for."""
+    from marknav.missions.display import make_view
+
+    sinks: list[Any] = []
+    if req.viewer or req.record_path is not None:
+        from marknav.missions.viewer import RerunSink
+
+        sinks.append(RerunSink(req.mission, getattr(env, "world", None), spawn=req.viewer,
+                               path=req.record_path))
+    view = make_view(req.out, req.tree_style, title=f"marknav run {req.mission.name}")
+    if view is None and not sinks and events.path is None:
+        return None
+    mission = req.mission
+    return Recorder(root, env, events, mission=mission, view=view, sinks=sinks,
+                    frames_hz=req.frames_hz,
+                    finish=lambda report: _fill_ground_truth(mission, env, report))
+
+
 def _classify(root: py_trees.behaviour.Behaviour) -> tuple[bool, str]:
     failure = failure_reason(root)
     if failure is None:
@@ -286,11 +297,13 @@ def _classify(root: py_trees.behaviour.Behaviour) -> tuple[bool, str]:
     return failure.aborted, failure.reason
 
 
-def _fill_ground_truth(mission: Mission, env: Environment, report: RunReport) -> None:
+def _fill_ground_truth(mission: Mission, env: Environment, report: RunReport) -> dict[str, Any]:
+    """Ground truth into the report (simulator only); returns the run log's extra figures:
+    collision points and the world mark each waypoint was matched to."""
     from marknav.sim.environment import SimEnvironment, waypoint_truth
 
     if not isinstance(env, SimEnvironment):
-        return
+        return {}
     truth = waypoint_truth(env.truth, env.world, list(mission.route), pass_times(mission))
     for wp, (side, clearance, _idx) in zip(report.waypoints, truth, strict=True):
         wp.passed_on = side
@@ -301,16 +314,20 @@ def _fill_ground_truth(mission: Mission, env: Environment, report: RunReport) ->
         "oi_mode": env.create.mode.name.lower(),
         "stream": bool(env.create.streaming),
     }
+    return {"collision_points": list(env.truth.collisions),
+            "waypoint_marks": [idx for _s, _c, idx in truth]}
 
 
-def _plot(mission: Mission, env: Environment, result: RunResult, path: Path) -> None:
+def _plot(mission: Mission, env: Environment, result: RunResult, path: Path,
+          waypoint_marks: list[int | None] | None = None) -> None:
     from marknav.sim.environment import SimEnvironment
     from marknav.sim.plot import plot_run
 
     if not isinstance(env, SimEnvironment):
         raise InputError("--plot draws the simulator's ground truth; it needs --robot sim",
                          field="--plot")
-    plot_run(mission, env.world, env.truth, result.plans, result.report, path)
+    plot_run(mission, env.world, env.truth, result.plans, result.report, path,
+             waypoint_marks=waypoint_marks)
 
 
 def load(path: str) -> Mission:

@@ -17,14 +17,13 @@ import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Protocol, TextIO
+from typing import Any, Protocol
 
 import py_trees
 from py_trees.common import Status
 
 from marknav.clock import Clock
 from marknav.drivers.robot import ESTOPPED, FAULT, Robot
-from marknav.missions.display import TreeView
 from marknav.missions.report import ABORTED, FAILED, SUCCESS, EventLog, RunReport
 from marknav.signals import Interrupted, interrupting
 from marknav.vision.sources import FrameSource
@@ -68,15 +67,26 @@ class Environment(Protocol):
         ...
 
 
+class TickObserver(Protocol):
+    """Watches a run: ``tick`` after each tick (run time, overruns so far), ``finish`` before
+    the event log's ``end`` record."""
+
+    def tick(self, now: float, overruns: int) -> None: ...
+
+    def finish(self, report: RunReport) -> None: ...
+
+
 @dataclass
 class RunOptions:
     rate_hz: float = 20.0
     max_time_s: float = 300.0
     realtime: bool = False  # pace a simulated clock at wall-clock speed
     sleep: bool = False  # the clock is real: sleep until the next cycle
-    tree_style: str = "none"
-    view_out: TextIO | None = None
     setup_timeout_s: float = 5.0
+    #: Watches every tick (the run log, the live view, the viewer): ``tick(now, overruns)``
+    #: after each tick, ``finish(report)`` before the ``end`` record.
+    observer: TickObserver | None = None
+
 
 
 class MissionTree(py_trees.trees.BehaviourTree):
@@ -153,7 +163,6 @@ def run_tree(
     options: RunOptions,
     *,
     setup_kwargs: dict[str, Any] | None = None,
-    status_line: Callable[[], str] | None = None,
     waypoint_outcomes: Callable[[], list[str]] | None = None,
     classify: Callable[[py_trees.behaviour.Behaviour], tuple[bool, str]] | None = None,
 ) -> RunReport:
@@ -163,8 +172,7 @@ def run_tree(
     ``classify(root)`` says why a failed tree failed: ``(aborted, reason)``.
     """
     tree = MissionTree(root)
-    view = TreeView(tree, options.view_out, style=options.tree_style,
-                    status_line=status_line) if options.view_out is not None else None
+    observer = options.observer
     period = 1.0 / options.rate_hz
     tick_times: list[float] = []
     wall0 = time.perf_counter()
@@ -189,15 +197,15 @@ def run_tree(
                 now = env.clock.now() - t0
                 status = root.status
                 safety = env.safety_events()
-                for ev in safety[n_safety:]:
-                    events.write(ev.get("t", now), "safety", **{k: v for k, v in ev.items()
-                                                               if k != "t"})
+                for ev in safety[n_safety:]:  # clock time -> run time (never before 0)
+                    t_ev = max(0.0, float(ev["t"]) - t0) if "t" in ev else now
+                    events.write(t_ev, "safety", **{k: v for k, v in ev.items() if k != "t"})
                 n_safety = len(safety)
                 if status != last_status:
                     events.write(now, "status", status=status.value, active=active_path(root))
                     last_status = status
-                if view is not None:
-                    view.update()
+                if observer is not None:
+                    observer.tick(now, report.overruns)
                 if status == Status.SUCCESS:
                     report.outcome, report.reason = SUCCESS, "every waypoint passed"
                     break
@@ -247,8 +255,17 @@ def run_tree(
         except Exception:
             log.exception("collecting ground truth failed")
         report.safety_events = [
-            {k: v for k, v in ev.items()} for ev in env.safety_events()
+            {**ev, "t": round(max(0.0, float(ev["t"]) - t0), 4)} if "t" in ev else dict(ev)
+            for ev in env.safety_events()
         ]
+        for ev in report.safety_events[n_safety:]:  # the stop above, a late fault
+            events.write(ev.get("t", report.sim_time_s), "safety",
+                         **{k: v for k, v in ev.items() if k != "t"})
+        if observer is not None:
+            try:
+                observer.finish(report)
+            except Exception:
+                log.exception("finishing the run log failed")
         events.write(report.sim_time_s, "end", outcome=report.outcome, reason=report.reason,
                      ticks=report.ticks)
     return report

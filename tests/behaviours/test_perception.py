@@ -81,7 +81,12 @@ def test_a_repeated_frame_is_not_processed_again(blackboard, fake_robot, manual_
     p.tick_once()
     assert p.frames == 1
     assert p.blackboard.get(keys.MARKS)[0].t == 0.0  # the marks keep their time
-    assert p.feedback_message == "no new frame for 0.05 s"
+    # Between frames the latest frame's description stays, with its age (not a warning) ...
+    m0 = p.blackboard.get(keys.MARKS)[0]
+    assert p.feedback_message == f"frame 7: red {m0.range_mm / 1000:.2f} m (0.05 s ago)"
+    manual_clock.advance(0.45)  # ... until half the camera timeout (1 s) has passed
+    p.tick_once()
+    assert p.feedback_message == "no new frame for 0.50 s"
 
 
 def test_camera_lost_aborts_the_mission_and_stops_the_wheels(blackboard, fake_robot,

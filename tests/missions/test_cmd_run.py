@@ -37,11 +37,15 @@ def test_slalom_completes_with_report_tree_and_plot(
     assert report["ticks"] > 100
     assert set(report["tick_ms"]) == {"p50", "p99", "max"}
     assert report["sim_final"] == {"wheels_mm_s": [0, 0], "oi_mode": "passive", "stream": False}
-    # The tree is printed when it changes, not every tick, with the status line under it.
-    prints = out.count("[-] Mission")
+    # Not a terminal: the compact tree is printed when a status changes, not every tick, with
+    # the status line under it; finished waypoints are folded to one line with their result.
+    prints = out.count("▶ → Mission\n")
     assert 5 < prints < report["ticks"]
-    assert "[o] Waypoint 4: blue (pass on its left)" in out
+    assert "✔ ? Waypoint 1: red (pass on its left) ▸ — passed red #1 on its left" in out
     assert "safety driving" in out
+    screens = out.split("\n\n")
+    assert max(len(s.splitlines()) for s in screens if "Mission" in s) <= 26
+    assert "[o]" not in out and "[-]" not in out  # py_trees' symbols are not used
     assert "slalom: success — every waypoint passed (4/4 waypoints, 0 collisions" in out
     events = [json.loads(line) for line in
               (tmp_path / "report.events.jsonl").read_text().splitlines()]
@@ -136,4 +140,14 @@ def test_interrupt_stops_the_wheels_and_writes_the_report(tmp_path: Path, sig: i
     assert report["reason"].startswith("interrupted")
     assert report["sim_final"] == {"wheels_mm_s": [0, 0], "oi_mode": "passive", "stream": False}
     assert events_path.read_text().splitlines()[-1].startswith('{"t"')
-    assert json.loads(events_path.read_text().splitlines()[-1])["kind"] == "end"
+    records = [json.loads(line) for line in events_path.read_text().splitlines()]
+    # The run log ends with the abort: the last tick, the wheels' stop, the report, the end.
+    kinds = [r["kind"] for r in records]
+    last_tick = max(i for i, k in enumerate(kinds) if k == "tick")
+    assert kinds[-2:] == ["report", "end"]
+    assert set(kinds[last_tick + 1:-2]) == {"safety"}
+    assert records[-3]["event"] == "stop"
+    assert records[-1]["outcome"] == "aborted"
+    assert records[-1]["reason"].startswith("interrupted")
+    assert records[-2]["report"]["outcome"] == "aborted"
+    assert records[-1]["ticks"] == records[last_tick]["n"] + 1 == report["ticks"]
