@@ -431,15 +431,15 @@ def test_7_sigterm_outside_the_loop_still_writes_everything(
 def test_7_sigint_while_loading_names_no_report(monkeypatch: pytest.MonkeyPatch,
                                                 tmp_path: Path,
                                                 capsys: pytest.CaptureFixture[str]) -> None:
-    import marknav.missions.schema as schema
+    import marknav.missions.checks as checks
 
-    original = schema.load_mission
+    original = checks.load_mission
 
-    def load(path: Any, registry: Any = None) -> Any:
+    def load(path: Any, *args: Any, **kwargs: Any) -> Any:
         os.kill(os.getpid(), signal.SIGINT)
-        return original(path, registry)
+        return original(path, *args, **kwargs)
 
-    monkeypatch.setattr(schema, "load_mission", load)
+    monkeypatch.setattr(checks, "load_mission", load)  # what 'run' loads the mission with
     monkeypatch.chdir(tmp_path)
     assert main(["run", str(SLALOM)]) == 130
     err = capsys.readouterr().err
