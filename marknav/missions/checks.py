@@ -150,7 +150,7 @@ def _world_of_invalid_mission(
 def _world_problems(
     marks: Marks, route: Sequence[str], world_path: Path, where: tuple[str, ...], locate: Locate
 ) -> list[InputError]:
-    if not world_path.is_file():
+    if not world_path.exists():  # anything else that is not a world file: the loader says what
         if where:
             return [locate(where, f"no such world file: {world_path}")]
         return [InputError("no such file", file=str(world_path))]
