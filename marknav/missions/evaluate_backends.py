@@ -97,10 +97,12 @@ def _interruptible() -> Iterator[None]:
 
 
 @contextmanager
-def _signals_ignored() -> Iterator[None]:
-    """A second Ctrl-C (or SIGTERM) must not interrupt the clean-up (main thread only)."""
+def _signals_ignored(signals: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
+                     ) -> Iterator[None]:
+    """Ignore ``signals`` for a while, e.g. so that a second Ctrl-C (or SIGTERM) cannot
+    interrupt the clean-up (main thread only)."""
     try:
-        old = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT, signal.SIGTERM)}
+        old = {s: signal.signal(s, signal.SIG_IGN) for s in signals}
     except ValueError:
         yield
         return
@@ -180,8 +182,11 @@ def _run_pool(jobs: Sequence[Job], max_time_s: float | None, on_result: OnResult
         pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
                                    initializer=_init_worker, initargs=(level, os.getpid()))
         try:
-            pending: set[Future[Any]] = {pool.submit(_pool_task, job, max_time_s)
-                                         for job in jobs}
+            # The workers start (in submit) with SIGINT ignored, inherited: a Ctrl-C while one
+            # is still importing cannot kill it with a traceback; the parent handles Ctrl-C.
+            with _signals_ignored((signal.SIGINT,)):
+                pending: set[Future[Any]] = {pool.submit(_pool_task, job, max_time_s)
+                                             for job in jobs}
             procs = [p for p in multiprocessing.active_children() if p not in before]
             while pending:
                 done, pending = wait(pending, timeout=WAIT_S, return_when=FIRST_COMPLETED)
@@ -191,10 +196,11 @@ def _run_pool(jobs: Sequence[Job], max_time_s: float | None, on_result: OnResult
             with _signals_ignored():
                 procs = procs or [p for p in multiprocessing.active_children()
                                   if p not in before]
-                for fut in pending:
-                    fut.cancel()
+                # The pool cancels what has not started (cancelling futures here races with
+                # its manager thread), the workers end now, then the manager thread is joined.
+                pool.shutdown(wait=False, cancel_futures=True)
                 _stop_workers(procs)
-                pool.shutdown(wait=True, cancel_futures=True)
+                pool.shutdown(wait=True)
             raise
         pool.shutdown(wait=True)
     return workers
@@ -221,7 +227,7 @@ def _dask_client(address: str) -> Any:
 
 def _run_dask(jobs: Sequence[Job], max_time_s: float | None, on_result: OnResult,
               address: str) -> int:
-    from distributed import wait as dask_wait
+    from distributed import as_completed
 
     client = _dask_client(address)
     futures: list[Any] = []
@@ -232,12 +238,8 @@ def _run_dask(jobs: Sequence[Job], max_time_s: float | None, on_result: OnResult
             futures = [client.submit(_run, job, max_time_s, pure=False, retries=0,
                                      key=f"marknav-{Path(job[0]).stem}-{job[1]}-{tag}")
                        for job in jobs]
-            pending = set(futures)
-            while pending:
-                result = dask_wait(list(pending), timeout=WAIT_S, return_when="FIRST_COMPLETED")
-                for fut in result.done:
-                    pending.discard(fut)
-                    on_result(fut.result())
+            for fut in as_completed(futures, loop=client.loop):
+                on_result(fut.result())
     except BaseException:
         with _signals_ignored():
             try:
