@@ -104,3 +104,19 @@ def test_bench_unknown_section_is_a_usage_error() -> None:
     with pytest.raises(SystemExit) as exc:
         main(["bench", "nope"])
     assert exc.value.code == 2
+
+
+def test_bench_profile_prints_the_top_costs(capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from marknav.cli import main
+
+    assert main(["bench", "safety", "--quick", "--json", "--profile", "4"]) == 0
+    captured = capsys.readouterr()
+    assert "safety" in json.loads(captured.out)  # stdout stays one JSON object
+    err = captured.err.splitlines()
+    own = err.index("top 4 by own time:")
+    cum = err.index("top 4 by cumulative time:")
+    assert cum - own == 6  # header + 4 rows
+    assert any("marknav/missions/bench.py" in line for line in err[cum:])
+    assert main(["bench", "safety", "--quick", "--profile", "0"]) == 2
