@@ -12,13 +12,14 @@ from marknav.testing import make_mission
 def test_tree_bench_times_the_requested_ticks() -> None:
     out = bench_tree(waypoints=6, ticks=30, slalom_ticks=20, warmup=3)
     assert set(out) == {"waypoints", "ticks", "waypoints_passed", "tick_us_p50", "tick_us_p99",
-                        "tick_us_max", "slalom_ticks", "slalom_waypoints_passed",
-                        "slalom_tick_us_p50", "slalom_tick_us_p99"}
+                        "tick_us_max", "tick_cpu_us_p50", "tick_cpu_us_p99", "slalom_ticks",
+                        "slalom_waypoints_passed", "slalom_tick_us_p50", "slalom_tick_us_p99"}
     assert out["waypoints"] == 6 and out["ticks"] == 30 and out["slalom_ticks"] == 20
     # 33 ticks of 50 ms: the robot is still approaching its first mark.
     assert out["waypoints_passed"] == 0
     assert 0 < out["tick_us_p50"] <= out["tick_us_p99"] <= out["tick_us_max"]
     assert 0 < out["slalom_tick_us_p50"] <= out["slalom_tick_us_p99"]
+    assert 0 < out["tick_cpu_us_p50"] <= out["tick_cpu_us_p99"]
 
 
 def test_tree_bench_stops_when_the_route_is_done() -> None:
