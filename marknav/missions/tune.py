@@ -16,7 +16,9 @@ trial with more successes always wins; among equal success rates the faster one 
 The study lives in its own storage (default ``sqlite:///runs/tune-NAME/study.sqlite3``) with
 the parameter space, seeds and time limit recorded; running the same command again resumes it
 until ``--trials`` trials are complete (a trial cut short by Ctrl-C is recorded as failed and
-does not count). A study made with other parameters, seeds or runs is refused.
+does not count; a combination the mission schema refuses, e.g. a bypass distance under the
+clearance, is pruned and does not count either). A study made with other parameters, seeds or
+runs is refused.
 """
 
 from __future__ import annotations
@@ -38,6 +40,9 @@ from marknav.errors import InputError
 __all__ = ["Param", "TuneResult", "best_yaml", "parse_param", "plot_trials", "tune"]
 
 log = logging.getLogger(__name__)
+
+#: Give up after this many times --trials draws (invalid combinations are pruned, not counted).
+MAX_ATTEMPTS_FACTOR = 5
 
 _PARAM = re.compile(r"^(?P<key>[A-Za-z_][\w]*(\.[A-Za-z_][\w]*)+)=(?P<lo>[^:]+):(?P<hi>[^:]+)"
                     r"(:(?P<step>[^:]+))?$")
@@ -244,6 +249,13 @@ def tune(
     def objective(trial: Any) -> float:
         values = {p.key: p.suggest(trial) for p in params}
         path = _trial_mission(source, doc, values, folder / f"trial-{trial.number:04d}.yaml")
+        try:
+            load_mission(path)
+        except InputError as exc:  # a combination the schema refuses: not a result
+            log.warning("trial %d: %s is not a valid mission (%s): pruned", trial.number,
+                        values, exc.message)
+            trial.set_user_attr("invalid", exc.message)
+            raise optuna.TrialPruned(exc.message) from None
         ev = evaluate(path, runs=runs, seed=seed, jobs=jobs, dask=dask, max_time_s=limit,
                       min_success=0.0)
         trial.set_user_attr("success_rate", ev.success_rate)
@@ -257,8 +269,14 @@ def tune(
             on_trial(_summary(frozen), _summary(study.best_trial), len(complete()))
 
     remaining = trials - len(complete())
-    if remaining > 0:
-        study.optimize(objective, n_trials=remaining, callbacks=[callback], catch=())
+    attempts = 0
+    while len(complete()) < trials:
+        if attempts >= MAX_ATTEMPTS_FACTOR * trials:
+            raise InputError(f"{attempts} trials drew no valid mission: narrow the ranges",
+                             field="--param")
+        wanted = trials - len(complete())
+        attempts += wanted
+        study.optimize(objective, n_trials=wanted, callbacks=[callback], catch=())
     done = [_summary(t) for t in complete()]
     return TuneResult(mission=mission.name, storage=storage, study_name=study_name,
                       trials=done, best=_summary(study.best_trial),

@@ -115,3 +115,26 @@ def test_bad_params_are_input_errors(tiny: Path, tmp_path: Path,
                  "--trials", "1"]) == 2
     assert "no_such_mm" in capsys.readouterr().err
     assert not list((tmp_path / "runs" / "tune-tiny").glob("trial-*.yaml"))
+
+
+def test_combinations_the_schema_refuses_are_pruned(tiny: Path, tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch,
+                                                    caplog: pytest.LogCaptureFixture) -> None:
+    monkeypatch.chdir(tmp_path)
+    # Both ends are valid missions, but a bypass distance under the clearance is not.
+    assert main(["tune", str(tiny), "--param", "navigation.clearance_mm=280:700",
+                 "--param", "navigation.bypass_distance_mm=300:720:10", "--trials", "2",
+                 "--runs", "1", "--max-time", "3"]) == 0
+    study = _study(tmp_path / "runs" / "tune-tiny")
+    states = optuna.trial.TrialState
+    complete = [t for t in study.trials if t.state == states.COMPLETE]
+    pruned = [t for t in study.trials if t.state == states.PRUNED]
+    assert len(complete) == 2
+    assert pruned, "sampler seed 0 draws an invalid pair among its first trials"
+    for t in pruned:
+        assert "must exceed clearance_mm" in t.user_attrs["invalid"]
+        assert t.params["navigation.bypass_distance_mm"] <= t.params["navigation.clearance_mm"]
+    for t in complete:
+        assert t.params["navigation.bypass_distance_mm"] > t.params["navigation.clearance_mm"]
+    assert any("is not a valid mission" in r.getMessage() and r.getMessage().endswith("pruned")
+               for r in caplog.records)
