@@ -58,8 +58,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 class ProgressBar:
     """Progress of an evaluation, from its start: ``[#####-----] 12/20 done, 11 successes,
-    1:02 elapsed, ETA 0:43``. On a terminal the line is redrawn every second (so it shows
-    before the first run finishes); otherwise one line per finished run."""
+    1:02 elapsed, ETA 0:43``, on a terminal only: shown when the runs start, redrawn as each
+    finishes and every second in between (so the elapsed time moves before the first run
+    finishes)."""
 
     def __init__(self, out: TextIO, *, refresh_s: float = 1.0) -> None:
         self.out = out
@@ -78,8 +79,6 @@ class ProgressBar:
         """The evaluation of ``total`` runs starts now."""
         self.total, self.t0 = total, time.monotonic()
         if not self.tty:
-            self.out.write(self.line() + "\n")
-            self.out.flush()
             return
         self._draw()
         if self.refresh_s > 0:
@@ -113,9 +112,6 @@ class ProgressBar:
         self.done, self.total, self.successes = done, total, successes
         if self.tty:
             self._draw()
-        else:
-            self.out.write(self.line() + "\n")
-            self.out.flush()
 
     def finish(self) -> None:
         self._stop.set()
