@@ -226,8 +226,10 @@ def tune(
     space = {"params": [p.spec() for p in params], "runs": runs, "seed": seed,
              "max_time_s": limit, "mission": str(source.resolve())}
 
+    # Optuna's own per-trial lines (and its warning for a trial cut short by Ctrl-C) only
+    # with -v: the command prints its own line per trial.
     optuna.logging.set_verbosity(optuna.logging.INFO if log.isEnabledFor(logging.INFO)
-                                 else optuna.logging.WARNING)
+                                 else optuna.logging.ERROR)
     try:
         study = optuna.create_study(
             study_name=study_name, storage=storage, direction="minimize", load_if_exists=True,
