@@ -232,11 +232,13 @@ def tune(
                                  else optuna.logging.ERROR)
     try:
         study = optuna.create_study(
-            study_name=study_name, storage=storage, direction="minimize", load_if_exists=True,
-            sampler=optuna.samplers.TPESampler(seed=sampler_seed))
+            study_name=study_name, storage=storage, direction="minimize", load_if_exists=True)
     except (ValueError, ImportError, optuna.exceptions.OptunaError) as exc:
         raise InputError(f"cannot open the study storage {storage}: {exc}",
                          field="--storage") from None
+    # The sampler's seed moves on with the study: a resumed study must not draw the same
+    # start-up points again (a new sampler with the same seed repeats its random draws).
+    study.sampler = optuna.samplers.TPESampler(seed=sampler_seed + len(study.trials))
     recorded = study.user_attrs.get("space")
     if recorded is None:
         study.set_user_attr("space", space)

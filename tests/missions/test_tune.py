@@ -72,6 +72,8 @@ def test_tune_interrupt_then_resume(tiny: Path, tmp_path: Path) -> None:
     complete = [t for t in study.trials if t.state == optuna.trial.TrialState.COMPLETE]
     assert len(complete) == 2
     assert "(2/2 complete)" in done.stderr
+    # The resumed study drew new values, not the first trial's again.
+    assert complete[0].params != complete[1].params
     best = study.best_trial
     block = yaml.safe_load(done.stdout)
     assert block["navigation"]["bypass_distance_mm"] == best.params[
