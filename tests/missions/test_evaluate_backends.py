@@ -75,10 +75,19 @@ def test_dask_bad_address_is_bad_input(tiny: Path, capsys: pytest.CaptureFixture
 
 
 def _spawn(argv: list[str]) -> subprocess.Popen[str]:
-    """``marknav ARGV`` in its own process group (as a shell job: Ctrl-C reaches the group)."""
+    """``marknav ARGV`` in its own process group (as a shell job: Ctrl-C reaches the group),
+    with SIGINT at its default even if something in this test process left it ignored (an
+    ignored signal is inherited, and Python then leaves it ignored)."""
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    return subprocess.Popen([sys.executable, "-m", "marknav", *argv], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, env=env, start_new_session=True)
+    old = signal.getsignal(signal.SIGINT)
+    if old is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        return subprocess.Popen([sys.executable, "-m", "marknav", *argv],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                env=env, start_new_session=True)
+    finally:
+        signal.signal(signal.SIGINT, old)
 
 
 def _dask_tasks(client: Any) -> list[str]:

@@ -44,9 +44,15 @@ def _study(folder: Path) -> object:
 def test_tune_interrupt_then_resume(tiny: Path, tmp_path: Path) -> None:
     argv = [sys.executable, "-m", "marknav", "tune", str(tiny), *PARAMS, "--runs", "1",
             "--max-time", "20"]
-    proc = subprocess.Popen([*argv, "--trials", "5"], cwd=tmp_path, stderr=subprocess.PIPE,
-                            stdout=subprocess.PIPE, text=True, start_new_session=True,
-                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    old = signal.getsignal(signal.SIGINT)
+    if old is signal.SIG_IGN:  # an ignored SIGINT is inherited: the child must see Ctrl-C
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        proc = subprocess.Popen([*argv, "--trials", "5"], cwd=tmp_path, stderr=subprocess.PIPE,
+                                stdout=subprocess.PIPE, text=True, start_new_session=True,
+                                env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    finally:
+        signal.signal(signal.SIGINT, old)
     assert proc.stderr is not None
     seen = ""
     for line in proc.stderr:
