@@ -38,9 +38,10 @@ def test_loop_bench_runs_the_simulator_to_the_time_cap() -> None:
     assert out["sim_time_s"] == pytest.approx(0.5, abs=0.051)
     assert out["cycles"] == 11  # t = 0, 0.05, ..., 0.5 at 20 Hz
     assert out["speedup"] > 0
-    # CPU time covers the set-up as well as the cycles: never less than the cycles' share.
+    # The CPU-time speed-up is simulated time over the process's CPU time (both rounded to
+    # 0.01 s in the output, a large share of a 0.5 s run's tenths of a second).
     assert out["cpu_time_s"] > 0
-    assert out["speedup_cpu"] == pytest.approx(out["sim_time_s"] / out["cpu_time_s"], rel=0.02)
+    assert out["speedup_cpu"] == pytest.approx(out["sim_time_s"] / out["cpu_time_s"], rel=0.2)
     assert 0 < out["cycle_ms_p50"] <= out["cycle_ms_p99"] <= out["cycle_ms_max"]
     assert out["overruns"] >= 0
 
