@@ -13,20 +13,29 @@ versions) once at the top level, then a section per benchmark:
 - ``safety`` — bump-to-stop latency, safety layer alone and through the real driver
   (:func:`marknav.missions.bench.bench_safety`).
 
-``--quick`` runs each with small sizes (a smoke test: the figures are noisier).
+``--quick`` runs each with small sizes (a smoke test: the figures are noisier). ``--profile``
+runs them under :mod:`cProfile` and prints the top costs (own time and cumulative time per
+function) to stderr; the profiler slows everything down, so the figures printed with it are not
+the benchmark's.
 """
 
 from __future__ import annotations
 
 import argparse
+import cProfile
 import json
 import os
 import platform
+import pstats
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
-__all__ = ["BENCHMARKS", "Benchmark", "machine_info", "run_benchmarks"]
+from marknav.errors import InputError
+
+__all__ = ["BENCHMARKS", "Benchmark", "machine_info", "profile_top", "run_benchmarks"]
 
 
 @dataclass(frozen=True)
@@ -118,6 +127,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--quick", action="store_true",
                    help="small sizes: a smoke test, noisier figures")
+    p.add_argument("--profile", type=int, nargs="?", const=25, default=None, metavar="N",
+                   help="run under cProfile and print the N top costs to stderr (default 25; "
+                        "the profiler slows the benchmark down)")
     p.set_defaults(func=run)
 
 
@@ -130,8 +142,44 @@ def _text(results: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def profile_top(stats: pstats.Stats, n: int) -> str:
+    """The ``n`` functions with the most own time and the ``n`` with the most cumulative time,
+    as a table (ms, share of the total, calls, ``file:line(function)``)."""
+    raw: dict[Any, Any] = stats.stats  # type: ignore[attr-defined]
+    total = sum(tt for _cc, _nc, tt, _ct, _callers in raw.values()) or 1.0
+
+    def where(key: tuple[str, int, str]) -> str:
+        file, line, func = key
+        parts = Path(file).parts
+        short = "/".join(parts[parts.index("marknav"):]) if "marknav" in parts else (
+            "/".join(parts[-2:]) if len(parts) > 1 else file)
+        return f"{short}:{line}({func})" if line else func
+
+    lines = [f"profile: {total * 1e3:.0f} ms of function time"]
+    for title, col in (("own time", 2), ("cumulative time", 3)):
+        lines.append(f"top {n} by {title}:")
+        lines.append(f"  {'ms':>9} {'share':>6} {'calls':>8}  function")
+        rows = sorted(raw.items(), key=lambda kv: kv[1][col], reverse=True)[:n]
+        for key, value in rows:
+            ms = value[col] * 1e3
+            lines.append(f"  {ms:9.1f} {100 * value[col] / total:5.1f}% {value[1]:8d}  "
+                         f"{where(key)}")
+    return "\n".join(lines)
+
+
 def run(args: argparse.Namespace) -> int:
     names = list(BENCHMARKS) if args.which == "all" else [args.which]
-    results = run_benchmarks(names, quick=args.quick)
+    if args.profile is not None:
+        if args.profile < 1:
+            raise InputError(f"must be at least 1, got {args.profile}", field="--profile")
+        profiler = cProfile.Profile()
+        profiler.enable()
+        try:
+            results = run_benchmarks(names, quick=args.quick)
+        finally:
+            profiler.disable()
+        print(profile_top(pstats.Stats(profiler), args.profile), file=sys.stderr)
+    else:
+        results = run_benchmarks(names, quick=args.quick)
     print(json.dumps(results, indent=2) if args.json else _text(results))
     return 0

@@ -28,6 +28,7 @@ COMMANDS: tuple[str, ...] = (
     "marknav.missions.cmd_tree",
     "marknav.missions.cmd_evaluate",
     "marknav.missions.cmd_replay",
+    "marknav.missions.cmd_tune",
     "marknav.benchmarks",
     "marknav.vision.cmd_detect",
     "marknav.vision.cmd_calibrate",

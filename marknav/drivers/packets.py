@@ -26,6 +26,8 @@ The models differ where the specifications differ:
 from __future__ import annotations
 
 import dataclasses
+import functools
+import struct
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from enum import Enum, IntEnum
@@ -433,23 +435,32 @@ def packet_size(model: Model, packet_id: int) -> int:
     return sum(table[i].size for i in member_ids(model, packet_id))
 
 
+@functools.cache
+def _layout(model: Model, packet_id: int) -> tuple[struct.Struct, tuple[PacketSpec, ...],
+                                                  tuple[tuple[int, int], ...]]:
+    """How the data bytes of ``packet_id`` are laid out: a big-endian :class:`struct.Struct`
+    (every single packet is 1 or 2 bytes), its member specs and their raw ranges. Computed
+    once per (model, id): stream frames are decoded and encoded 67 times a second."""
+    table = _TABLES[model]
+    specs = tuple(table[i] for i in member_ids(model, packet_id))
+    fmt = ">" + "".join({(1, False): "B", (1, True): "b", (2, False): "H", (2, True): "h"}
+                        [(sp.size, sp.signed)] for sp in specs)
+    ranges = tuple((-(1 << (8 * sp.size - 1)), (1 << (8 * sp.size - 1)) - 1) if sp.signed
+                   else (0, (1 << (8 * sp.size)) - 1) for sp in specs)
+    return struct.Struct(fmt), specs, ranges
+
+
 def decode_packet(model: Model, packet_id: int, data: bytes) -> dict[int, Any]:
     """Decode the data bytes of one (single or group) packet: single id → decoded value.
 
     Raises ``ValueError`` for an id the model lacks or a wrong number of bytes.
     """
-    size = packet_size(model, packet_id)
-    if len(data) != size:
-        raise ValueError(f"packet {packet_id} has {size} data bytes on the {model.value}, "
-                         f"got {len(data)}")
-    table = _TABLES[model]
-    out: dict[int, Any] = {}
-    pos = 0
-    for pid in member_ids(model, packet_id):
-        spec = table[pid]
-        out[pid] = spec.decode(spec.raw_from_bytes(data[pos:pos + spec.size]))
-        pos += spec.size
-    return out
+    layout, specs, _ranges = _layout(model, packet_id)
+    if len(data) != layout.size:
+        raise ValueError(f"packet {packet_id} has {layout.size} data bytes on the "
+                         f"{model.value}, got {len(data)}")
+    return {spec.id: spec.decode(raw) for spec, raw in zip(specs, layout.unpack(data),
+                                                           strict=True)}
 
 
 def decode_id_data_pairs(model: Model, payload: bytes) -> dict[int, Any]:
@@ -459,15 +470,18 @@ def decode_id_data_pairs(model: Model, payload: bytes) -> dict[int, Any]:
     """
     out: dict[int, Any] = {}
     pos = 0
-    while pos < len(payload):
+    n = len(payload)
+    while pos < n:
         pid = payload[pos]
         if not is_packet_id(model, pid):
             raise ValueError(f"unknown packet id {pid} at payload offset {pos}")
-        size = packet_size(model, pid)
-        data = payload[pos + 1:pos + 1 + size]
-        if len(data) != size:
-            raise ValueError(f"packet {pid} needs {size} data bytes, payload has {len(data)} left")
-        out.update(decode_packet(model, pid, data))
+        layout, specs, _ranges = _layout(model, pid)
+        size = layout.size
+        if pos + 1 + size > n:
+            raise ValueError(f"packet {pid} needs {size} data bytes, payload has "
+                             f"{n - pos - 1} left")
+        for spec, raw in zip(specs, layout.unpack_from(payload, pos + 1), strict=True):
+            out[spec.id] = spec.decode(raw)
         pos += 1 + size
     return out
 
@@ -478,9 +492,9 @@ def encode_packet(model: Model, packet_id: int, raw_values: Mapping[int, int]) -
     Missing single ids are sent as 0. Values are saturated to each packet's range, as the robot
     caps its distance/angle accumulators.
     """
-    table = _TABLES[model]
-    return b"".join(table[pid].raw_to_bytes(raw_values.get(pid, 0))
-                    for pid in member_ids(model, packet_id))
+    layout, specs, ranges = _layout(model, packet_id)
+    return layout.pack(*[max(lo, min(hi, int(raw_values.get(spec.id, 0))))
+                         for spec, (lo, hi) in zip(specs, ranges, strict=True)])
 
 
 def state_updates(model: Model, decoded: Mapping[int, Any]) -> dict[str, Any]:

@@ -6,6 +6,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import threading
+import time
 from typing import TextIO
 
 from marknav.errors import InputError, MissionFailed
@@ -20,7 +22,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         description=(
             "Run MISSION --runs N times in the simulator, each on a world generated from the "
             "route with seed S, S+1, ... and randomised light, colour cast, noise, blur, wheel "
-            "mismatch, mark yaw and camera latency. Prints the success rate with its 95 %% "
+            "mismatch, mark yaw and camera latency. Prints the success rate with its 95 % "
             "confidence interval, collisions, marks passed on the wrong side, the closest "
             "approach to a mark, time per run, and each failing seed with the command that "
             "replays it. Exits 1 when the success rate is under --min-success. With --accuracy, "
@@ -34,6 +36,10 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--seed", type=int, default=0, metavar="S", help="first seed (default 0)")
     p.add_argument("--jobs", type=int, default=1, metavar="J",
                    help="runs in parallel processes (default 1); results do not depend on it")
+    p.add_argument("--dask", metavar="tcp://HOST:PORT",
+                   help="run on this Dask scheduler's workers instead (pip install "
+                        "'marknav[cluster]'; workers need marknav and the mission file at the "
+                        "same path); results do not depend on it")
     p.add_argument("--max-time", type=float, metavar="SECONDS",
                    help="mission time limit per run (default 60 s + 40 s per waypoint)")
     p.add_argument("--min-success", type=float, default=0.95, metavar="RATE",
@@ -54,27 +60,79 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 class ProgressBar:
-    """``\\r[#####-----] 12/20 success 11`` on a terminal, nothing otherwise."""
+    """Progress of an evaluation, from its start: ``[#####-----] 12/20 done, 11 successes,
+    1:02 elapsed, ETA 0:43``, on a terminal only: shown when the runs start, redrawn as each
+    finishes and every second in between (so the elapsed time moves before the first run
+    finishes)."""
 
-    def __init__(self, out: TextIO) -> None:
+    def __init__(self, out: TextIO, *, refresh_s: float = 1.0) -> None:
         self.out = out
-        self.enabled = out.isatty()
+        self.tty = out.isatty()
+        self.refresh_s = refresh_s
+        self.total = 0
+        self.done = 0
+        self.successes = 0
+        self.t0 = time.monotonic()
         self.shown = False
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._ticker: threading.Thread | None = None
+
+    def start(self, total: int) -> None:
+        """The evaluation of ``total`` runs starts now."""
+        self.total, self.t0 = total, time.monotonic()
+        if not self.tty:
+            return
+        self._draw()
+        if self.refresh_s > 0:
+            self._ticker = threading.Thread(target=self._tick, name="marknav-progress",
+                                            daemon=True)
+            self._ticker.start()
+
+    def line(self) -> str:
+        elapsed = time.monotonic() - self.t0
+        total = max(self.total, 1)
+        filled = BAR_WIDTH * self.done // total
+        eta = _clock(elapsed / self.done * (self.total - self.done)) if self.done else "—"
+        return (f"[{'#' * filled}{'-' * (BAR_WIDTH - filled)}] {self.done}/{self.total} done, "
+                f"{self.successes} success{'es' if self.successes != 1 else ''}, "
+                f"{_clock(elapsed)} elapsed, ETA {eta}")
+
+    def _draw(self) -> None:
+        with self._lock:
+            self.out.write(f"\r{self.line()}\x1b[K")
+            self.out.flush()
+            self.shown = True
+
+    def _tick(self) -> None:
+        while not self._stop.wait(self.refresh_s):
+            self._draw()
 
     def __call__(self, done: int, total: int, successes: int) -> None:
-        if not self.enabled:
+        if done == 0:  # the runs start (the input was good)
+            self.start(total)
             return
-        filled = BAR_WIDTH * done // total
-        self.out.write(f"\r[{'#' * filled}{'-' * (BAR_WIDTH - filled)}] {done}/{total} "
-                       f"success {successes}")
-        self.out.flush()
-        self.shown = True
+        self.done, self.total, self.successes = done, total, successes
+        if self.tty:
+            self._draw()
 
     def finish(self) -> None:
+        self._stop.set()
+        if self._ticker is not None:
+            self._ticker.join()
+            self._ticker = None
         if self.shown:
             self.out.write("\n")
             self.out.flush()
             self.shown = False
+
+
+def _clock(seconds: float) -> str:
+    """``m:ss`` (or ``h:mm:ss``)."""
+    s = max(0, round(seconds))
+    h, rest = divmod(s, 3600)
+    m, sec = divmod(rest, 60)
+    return f"{h}:{m:02d}:{sec:02d}" if h else f"{m}:{sec:02d}"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -92,11 +150,14 @@ def run(args: argparse.Namespace) -> int:
     from marknav.missions.overrides import parse_overrides
 
     parse_overrides(args.overrides)  # a malformed --set: exit 2 before anything runs
+    if args.dask is not None and args.jobs != 1:
+        raise InputError("--jobs is for local processes; with --dask the cluster's workers "
+                         "run the evaluation", field="--jobs")
     bar = ProgressBar(sys.stderr)
     try:
         ev = evaluate(args.mission, runs=args.runs, seed=args.seed, jobs=args.jobs,
                       max_time_s=args.max_time, min_success=args.min_success, progress=bar,
-                      overrides=args.overrides)
+                      overrides=args.overrides, dask=args.dask)
     finally:
         bar.finish()
     if args.json:

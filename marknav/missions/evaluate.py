@@ -26,12 +26,10 @@ from __future__ import annotations
 
 import logging
 import math
-import multiprocessing
 import shlex
 import time
 import traceback
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -40,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from marknav.errors import InputError
+from marknav.missions.evaluate_backends import run_jobs
 from marknav.missions.report import SUCCESS, RunReport
 from marknav.sim.accuracy import DEFAULT_XS_MM, DEFAULT_YS_MM
 
@@ -237,10 +236,6 @@ def run_seed(mission_path: str, seed: int, max_time_s: float | None = None,
     return SeedResult.from_report(seed, report)
 
 
-def _init_worker(level: int) -> None:
-    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
-
-
 # ------------------------------------------------------------------------------ many runs
 
 
@@ -408,12 +403,15 @@ def evaluate(
     min_success: float = 0.95,
     progress: Progress | None = None,
     overrides: Sequence[str] = (),
+    dask: str | None = None,
 ) -> Evaluation:
     """Run ``runs`` simulated missions (seeds ``seed`` … ``seed + runs − 1``) and summarise them.
 
     ``jobs`` > 1 runs them in that many worker processes (each loads the mission from its path);
-    the results do not depend on it. ``progress(done, total, successes)`` is called after each
-    run. Bad input raises :class:`InputError` before anything runs.
+    the results do not depend on it; ``dask`` (``tcp://HOST:PORT``) runs them on that Dask
+    cluster instead (:mod:`marknav.missions.evaluate_backends`). ``progress(done, total,
+    successes)`` is called with ``done = 0`` when the runs start, then after each run. Bad
+    input raises :class:`InputError` before anything runs.
     """
     from marknav.missions.schema import load_mission
 
@@ -441,26 +439,12 @@ def evaluate(
         if progress is not None:
             progress(len(results), runs, sum(1 for s in results if s.success))
 
-    workers = min(jobs, runs)
-    if workers == 1:
-        for s in seeds:
-            done(run_seed(path, s, max_time_s, overrides))
-    else:
-        # spawn: fresh workers that share nothing with this process (py_trees' blackboard is
-        # process-global), the same on every platform.
-        ctx = multiprocessing.get_context("spawn")
-        level = logging.getLogger().getEffectiveLevel()
-        pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
-                                   initializer=_init_worker, initargs=(level,))
-        try:
-            futures: list[Future[SeedResult]] = [
-                pool.submit(run_seed, path, s, max_time_s, overrides) for s in seeds]
-            for fut in as_completed(futures):
-                done(fut.result())
-        except BaseException:
-            pool.shutdown(wait=False, cancel_futures=True)
-            raise
-        pool.shutdown(wait=True)
+    # Where the runs execute (this process, a local pool, a Dask cluster): evaluate_backends.
+    if progress is not None:
+        progress(0, runs, 0)
+    spec = str(Path(path).resolve()) if dask is not None else path  # a cluster's cwd differs
+    _, workers = run_jobs([(spec, s, tuple(overrides)) for s in seeds], max_time_s=max_time_s,
+                          workers=jobs, dask=dask, on_result=done)
     ev = summarise(results, mission=mission.name, mission_path=path,
                    clearance_mm=mission.navigation.clearance_mm, min_success=min_success,
                    max_time_s=max_time_s, jobs=workers,

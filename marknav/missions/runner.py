@@ -14,6 +14,7 @@ Environments (the simulator, a real Create + camera) implement :class:`Environme
 from __future__ import annotations
 
 import logging
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -182,7 +183,12 @@ def run_tree(
     report.outcome, report.reason = ABORTED, "did not start"
     try:
         with _signals_interrupt():
-            tree.setup(timeout=options.setup_timeout_s, **(setup_kwargs or {}))
+            # py_trees times setup out with a signal, which only the main thread may install;
+            # elsewhere (a Dask worker's task thread) setup runs without that timeout.
+            main = threading.current_thread() is threading.main_thread()
+            tree.setup(timeout=options.setup_timeout_s if main
+                       else py_trees.common.Duration.INFINITE,
+                       **(setup_kwargs or {}))
             events.write(env.clock.now() - t0, "start", mission=report.mission, env=env.name)
             t_next = env.clock.now()
             while True:

@@ -12,13 +12,14 @@ from marknav.testing import make_mission
 def test_tree_bench_times_the_requested_ticks() -> None:
     out = bench_tree(waypoints=6, ticks=30, slalom_ticks=20, warmup=3)
     assert set(out) == {"waypoints", "ticks", "waypoints_passed", "tick_us_p50", "tick_us_p99",
-                        "tick_us_max", "slalom_ticks", "slalom_waypoints_passed",
-                        "slalom_tick_us_p50", "slalom_tick_us_p99"}
+                        "tick_us_max", "tick_cpu_us_p50", "tick_cpu_us_p99", "slalom_ticks",
+                        "slalom_waypoints_passed", "slalom_tick_us_p50", "slalom_tick_us_p99"}
     assert out["waypoints"] == 6 and out["ticks"] == 30 and out["slalom_ticks"] == 20
     # 33 ticks of 50 ms: the robot is still approaching its first mark.
     assert out["waypoints_passed"] == 0
     assert 0 < out["tick_us_p50"] <= out["tick_us_p99"] <= out["tick_us_max"]
     assert 0 < out["slalom_tick_us_p50"] <= out["slalom_tick_us_p99"]
+    assert 0 < out["tick_cpu_us_p50"] <= out["tick_cpu_us_p99"]
 
 
 def test_tree_bench_stops_when_the_route_is_done() -> None:
@@ -37,6 +38,10 @@ def test_loop_bench_runs_the_simulator_to_the_time_cap() -> None:
     assert out["sim_time_s"] == pytest.approx(0.5, abs=0.051)
     assert out["cycles"] == 11  # t = 0, 0.05, ..., 0.5 at 20 Hz
     assert out["speedup"] > 0
+    # The CPU-time speed-up is simulated time over the process's CPU time (both rounded to
+    # 0.01 s in the output, a large share of a 0.5 s run's tenths of a second).
+    assert out["cpu_time_s"] > 0
+    assert out["speedup_cpu"] == pytest.approx(out["sim_time_s"] / out["cpu_time_s"], rel=0.2)
     assert 0 < out["cycle_ms_p50"] <= out["cycle_ms_p99"] <= out["cycle_ms_max"]
     assert out["overruns"] >= 0
 
@@ -104,3 +109,19 @@ def test_bench_unknown_section_is_a_usage_error() -> None:
     with pytest.raises(SystemExit) as exc:
         main(["bench", "nope"])
     assert exc.value.code == 2
+
+
+def test_bench_profile_prints_the_top_costs(capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from marknav.cli import main
+
+    assert main(["bench", "safety", "--quick", "--json", "--profile", "4"]) == 0
+    captured = capsys.readouterr()
+    assert "safety" in json.loads(captured.out)  # stdout stays one JSON object
+    err = captured.err.splitlines()
+    own = err.index("top 4 by own time:")
+    cum = err.index("top 4 by cumulative time:")
+    assert cum - own == 6  # header + 4 rows
+    assert any("marknav/missions/bench.py" in line for line in err[cum:])
+    assert main(["bench", "safety", "--quick", "--profile", "0"]) == 2
