@@ -1,0 +1,193 @@
+"""The pipeline: search mask at half resolution, cheap rejection, then per blob the fast path
+(:mod:`.whole`) or the arc path (:mod:`.arcs`), then suppression (:mod:`.suppress`).
+
+1. **Search at half resolution** (``DetectorConfig.downscale``): the frame is box-reduced
+   (``INTER_AREA``) and white-balanced (:mod:`.colour`); one HSV mask ``S >= sat_min,
+   V >= v_floor``, a 3×3 opening and external contours give the blobs.
+2. **Cheap rejection** with a handful of OpenCV calls: blobs too small, too thin (stripes),
+   rectangle-like (area / minimum bounding rectangle > ``max_extent``), small triangles (<
+   ``min_small_extent`` of it).
+3. Whole marks take the fast path, the rest the arc path; duplicates are suppressed.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+
+from marknav.vision.detect.arcs import _ArcMarks
+from marknav.vision.detect.base import _Frame
+from marknav.vision.detect.colour import _NO_COLOUR, _diagonal
+from marknav.vision.detect.geometry import (
+    Contour,
+    U8Array,
+    _flat_stretch,
+    _from_rotated_rect,
+    _longest_edge,
+)
+from marknav.vision.detect.model import DetectorConfig, Mark
+from marknav.vision.detect.suppress import _suppress_duplicates
+from marknav.vision.palette import DEFAULT_PALETTE, HUE_MAX, Palette
+
+__all__ = ["Detector", "detect_marks"]
+
+
+class Detector(_ArcMarks):
+    """Finds palette-coloured circular/elliptical marks in BGR frames.
+
+    Reuse one detector for a stream of frames (it builds its lookup tables once). Not
+    thread-safe: use one detector per thread.
+    """
+
+    def __init__(self, palette: Palette = DEFAULT_PALETTE,
+                 config: DetectorConfig | None = None) -> None:
+        if not palette:
+            raise ValueError("the palette is empty")
+        if len(palette) >= _NO_COLOUR:
+            raise ValueError(f"at most {_NO_COLOUR - 1} colours, got {len(palette)}")
+        self.palette: Palette = tuple(palette)
+        self.config = config if config is not None else DetectorConfig()
+        self._sat_min = min(c.sat_min for c in self.palette)
+        self._val_min = min(c.val_min for c in self.palette)
+        self._uniform_floors = all(
+            c.sat_min == self._sat_min and c.val_min == self._val_min for c in self.palette
+        )
+        hue_lut = self._build_hue_lut(self.palette, self.config.hue_margin)
+        self._hue_lut = np.full(256, _NO_COLOUR, np.uint8)
+        self._hue_lut[:HUE_MAX] = hue_lut
+        self._fine_lut = self._build_fine_lut(self.palette, self.config.hue_margin)
+        self._membership = np.zeros((len(self.palette), HUE_MAX), np.float64)
+        for k in range(len(self.palette)):
+            self._membership[k, hue_lut == k] = 1.0
+        size = self.config.open_size
+        self._kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (size, size))
+        self._kernel3 = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
+        self.last_gains: tuple[float, float, float] = (1.0, 1.0, 1.0)
+        self.last_grey_level: float = 0.0
+
+    def detect(self, image: U8Array) -> list[Mark]:
+        """All marks in a BGR ``uint8`` image (H×W×3), largest first."""
+        if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.ndim != 3 \
+                or image.shape[2] != 3:
+            raise ValueError("detect() needs a BGR uint8 image of shape (H, W, 3)")
+        cfg = self.config
+        h, w = image.shape[:2]
+        scale = cfg.downscale if min(h, w) >= 64 * cfg.downscale else 1
+        if scale > 1:
+            sw, sh = w // scale, h // scale
+            small = cv2.resize(image, (sw, sh), interpolation=cv2.INTER_AREA)
+        else:
+            sw, sh, small = w, h, image
+        if cfg.white_balance:
+            gains, grey = self.white_balance(small)
+        else:
+            gains, grey = (1.0, 1.0, 1.0), float(np.mean(cv2.mean(small)[:3]))
+        self.last_gains, self.last_grey_level = gains, grey
+        balance = None
+        if max(abs(g - 1.0) for g in gains) > 0.02:
+            balance = _diagonal(gains)
+            small = cv2.transform(small, balance)
+        hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
+        v_floor = self._value_floor(grey)
+        mask = cv2.inRange(hsv, (0, self._sat_min, v_floor), (255, 255, 255))
+        if cfg.open_size > 1:
+            mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, self._kernel)
+        contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+        frame = _Frame(image, w, h, small, hsv, mask, w / sw, h / sh, balance, v_floor)
+        min_area = 0.4 * math.pi * (cfg.min_radius / scale) ** 2
+        marks: list[Mark] = []
+        for contour in contours:
+            if len(contour) < 6:
+                continue
+            area = cv2.contourArea(contour)
+            if area < min_area:
+                continue
+            marks.extend(self._blob(frame, contour, area))
+        marks = _suppress_duplicates(marks)
+        marks.sort(key=lambda m: (-m.radius, m.x, m.y))
+        return marks
+
+    def _blob(self, frame: _Frame, contour: Contour, area: float) -> list[Mark]:
+        cfg = self.config
+        s = frame.sx
+        bx, by, bw, bh = cv2.boundingRect(contour)
+        box = (bx, by, bw, bh)
+        sh, sw = frame.mask.shape
+        border = bx <= 0 or by <= 0 or bx + bw >= sw or by + bh >= sh
+        _, (rw, rh), _ = cv2.minAreaRect(contour)
+        # Cheap clutter rejection: slivers and stripes (a mark's visible part, even cut by the
+        # image edge down to ``min_arc`` of its outline, is at least a quarter as wide as long),
+        # rectangles (they fill their minimum bounding rectangle).
+        if (min(rw, rh) + 1.0) * s < 1.2 * cfg.min_radius or min(rw, rh) < 0.3 * max(rw, rh):
+            return []
+        if area > cfg.max_extent * rw * rh and min(rw, rh) * s >= 24.0:
+            return []
+        hull = cv2.convexHull(contour)
+        hull_area = cv2.contourArea(hull)
+        convex = area >= cfg.min_solidity * hull_area
+        if convex and not border:
+            coarse = self._whole_fit(contour, tolerance_px=1.0)
+            if coarse is not None and \
+                    _longest_edge(cv2.approxPolyDP(hull, 0.75, True)) > _flat_stretch(coarse):
+                coarse = None  # a straight cut: an occluder's edge
+            if coarse is not None:
+                mark = self._measure_whole(frame, self._to_full(frame, coarse), None, 1.0)
+                if mark is not None:
+                    return [mark]
+        # Not a clean whole mark: cut by the image edge, partly hidden, touching, or clutter.
+        # Polygons (few vertices) and shapes far from their fitted ellipse's area stay out of
+        # the slow path.
+        step = max(1, len(contour) // 64)  # the least-squares fit needs no more points
+        e = _from_rotated_rect(cv2.fitEllipseDirect(
+            np.ascontiguousarray(contour[::step]).astype(np.float32)))
+        ell_area = math.pi * e.a * e.b
+        if not ell_area > 0 or abs(area - ell_area) > 0.2 * ell_area:
+            return []
+        r_est = math.sqrt(hull_area / math.pi)
+        if r_est * s >= 16.0 and len(cv2.approxPolyDP(hull, 0.1 * r_est, True)) < 6:
+            return []
+        # Small triangles: blur rounds them past the polygon test, but they fill little of
+        # their bounding rectangle (≈ 0.5-0.6; a disc 0.79, a disc cut by a chord >= 0.67).
+        if r_est * s < 20.0 and area < cfg.min_small_extent * rw * rh:
+            return []
+        colours = self._colours(frame, contour, box)
+        split = colours.split
+        if not split and (colours.colour is None or not self._meets_floors(frame, colours)):
+            return []
+        if not border:
+            # Inside the image: a partly hidden mark (convex) or touching marks (concave).
+            # Either is at least as round as two touching discs, and a partly hidden one must
+            # be large enough to tell from a bar's rounded end.
+            if e.minor < 0.9 * cfg.min_axis_ratio * e.major:
+                return []
+            if convex and r_est * s < cfg.min_partial_radius:
+                return []
+        if not self._has_arc(frame, contour, r_est):
+            return []
+        single: list[Mark] = []
+        if colours.colour is not None:
+            # One mark's reading: every palette-coloured pixel of the blob is the mark (its
+            # shading may straddle a palette boundary). A convex blob inside the image already
+            # failed as a whole mark.
+            single = self._window_marks(frame, colours.region, box, [colours.colour],
+                                        purity={colours.colour: colours.purity},
+                                        try_whole=border or not convex, merged=True)
+        if not split:
+            return single
+        # Touching marks of different colours: each colour on its own, the others hiding it.
+        # It stands when it finds more marks, or as many and at least two (one mark whose
+        # shading straddles two palette colours is one mark).
+        # (Each colour's part is that colour by construction: purity 1.)
+        present = colours.present
+        marks = self._window_marks(frame, colours.region, box, present,
+                                   purity=dict.fromkeys(present, 1.0), try_whole=True)
+        if len(marks) > len(single) or len(marks) == len(single) >= 2:
+            return marks
+        return single
+
+
+def detect_marks(image: U8Array, palette: Palette = DEFAULT_PALETTE) -> list[Mark]:
+    """Convenience: the marks in one BGR image with a fresh :class:`Detector`."""
+    return Detector(palette).detect(image)
