@@ -40,6 +40,7 @@ class _DetectorBase:
     _val_min: int
     _uniform_floors: bool
     _hue_lut: Mat
+    _gate_lut: Mat
     _fine_lut: Mat
     _membership: npt.NDArray[np.float64]
     _kernel: Mat

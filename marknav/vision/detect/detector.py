@@ -49,6 +49,9 @@ class Detector(_ArcMarks):
             raise ValueError(f"at most {_NO_COLOUR - 1} colours, got {len(palette)}")
         self.palette: Palette = tuple(palette)
         self.config = config if config is not None else DetectorConfig()
+        #: The config as given; ``config`` is it scaled for the last frame's width.
+        self._base_config = self.config
+        self._width = -1
         self._sat_min = min(c.sat_min for c in self.palette)
         self._val_min = min(c.val_min for c in self.palette)
         self._uniform_floors = all(
@@ -58,6 +61,7 @@ class Detector(_ArcMarks):
         self._hue_lut = np.full(256, _NO_COLOUR, np.uint8)
         self._hue_lut[:HUE_MAX] = hue_lut
         self._fine_lut = self._build_fine_lut(self.palette, self.config.hue_margin)
+        self._gate_lut = np.where(self._hue_lut == _NO_COLOUR, 0, 255).astype(np.uint8)
         self._membership = np.zeros((len(self.palette), HUE_MAX), np.float64)
         for k in range(len(self.palette)):
             self._membership[k, hue_lut == k] = 1.0
@@ -72,8 +76,11 @@ class Detector(_ArcMarks):
         if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.ndim != 3 \
                 or image.shape[2] != 3:
             raise ValueError("detect() needs a BGR uint8 image of shape (H, W, 3)")
-        cfg = self.config
         h, w = image.shape[:2]
+        if w != self._width:
+            self._width = w
+            self.config = self._base_config.for_width(w)
+        cfg = self.config
         scale = cfg.downscale if min(h, w) >= 64 * cfg.downscale else 1
         if scale > 1:
             sw, sh = w // scale, h // scale
@@ -92,11 +99,16 @@ class Detector(_ArcMarks):
         hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
         v_floor = self._value_floor(grey)
         mask = cv2.inRange(hsv, (0, self._sat_min, v_floor), (255, 255, 255))
+        if cfg.hue_gate:
+            # Only hues of the palette: a saturated floor, wall or board of another hue (wood
+            # beside a red mark, teal beside green) is background, not part of a mark's blob.
+            cv2.bitwise_and(mask, cv2.LUT(hsv[:, :, 0], self._gate_lut), dst=mask)
         if cfg.open_size > 1:
             mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, self._kernel)
         contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
         frame = _Frame(image, w, h, small, hsv, mask, w / sw, h / sh, balance, v_floor)
         min_area = 0.4 * math.pi * (cfg.min_radius / scale) ** 2
+        band = self._horizon_band(h, scale)
         marks: list[Mark] = []
         for contour in contours:
             if len(contour) < 6:
@@ -104,9 +116,58 @@ class Detector(_ArcMarks):
             area = cv2.contourArea(contour)
             if area < min_area:
                 continue
-            marks.extend(self._blob(frame, contour, area))
+            if band is not None:
+                _, y, _, bh = cv2.boundingRect(contour)
+                if y > band[1] or y + bh < band[0]:
+                    continue
+            found = self._blob(frame, contour, area)
+            if not found and cfg.split_colours:
+                found = self._split_colours(frame, contour, area, min_area)
+            marks.extend(found)
+        if band is not None:
+            lo, hi = (band[0] + 0.5) * scale - 0.5, (band[1] + 0.5) * scale - 0.5
+            marks = [m for m in marks if lo <= m.y <= hi]
         marks = _suppress_duplicates(marks)
         marks.sort(key=lambda m: (-m.radius, m.x, m.y))
+        return marks
+
+    def _horizon_band(self, height: int, scale: int) -> tuple[float, float] | None:
+        """Rows (search resolution) where mark centres may lie, or None without the prior."""
+        cfg = self.config
+        if cfg.horizon_row is None:
+            return None
+        row = (cfg.horizon_row + 0.5) / scale - 0.5
+        tol = cfg.horizon_tolerance_px / scale
+        return (row - tol, row + tol)
+
+    def _split_colours(self, frame: _Frame, contour: Contour, area: float,
+                       min_area: float) -> list[Mark]:
+        """A blob that gave no mark, read once more per palette colour: a mark touching a
+        large region of another palette colour (a red disc against blue sky, a blue one
+        against green foliage) is its own colour's part of the blob, cut out by its own outline.
+        """
+        bx, by, bw, bh = cv2.boundingRect(contour)
+        region = np.zeros((bh, bw), np.uint8)
+        cv2.drawContours(region, [contour], -1, 255, cv2.FILLED, offset=(-bx, -by))
+        cv2.bitwise_and(region, frame.mask[by:by + bh, bx:bx + bw], dst=region)
+        labels = cv2.LUT(np.ascontiguousarray(frame.hsv[by:by + bh, bx:bx + bw, 0]),
+                         self._hue_lut)
+        hist = cv2.calcHist([labels], [0], region, [len(self.palette)],
+                            [0, len(self.palette)]).ravel()
+        present = [k for k in range(len(self.palette)) if hist[k] >= min_area]
+        if len(present) < 2:
+            return []
+        marks: list[Mark] = []
+        for k in present:
+            own = cv2.bitwise_and(cv2.inRange(labels, k, k), region)
+            own = cv2.morphologyEx(own, cv2.MORPH_OPEN, self._kernel3)
+            parts, _ = cv2.findContours(own, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
+                                        offset=(bx, by))
+            for part in parts:
+                part_area = cv2.contourArea(part)
+                if len(part) < 6 or part_area < min_area or part_area > 0.95 * area:
+                    continue
+                marks.extend(self._blob(frame, part, part_area))
         return marks
 
     def _blob(self, frame: _Frame, contour: Contour, area: float) -> list[Mark]:

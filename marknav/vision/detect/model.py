@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Literal
+from dataclasses import dataclass, replace
+from typing import Any, Literal
 
-__all__ = ["DetectorConfig", "Mark", "Shape"]
+__all__ = ["MIN_RADIUS_FLOOR_PX", "DetectorConfig", "Mark", "Shape"]
+
+#: The smallest mark radius the pipeline measures reliably (px): below it a disc is a few
+#: blurred pixels whose shape says nothing.
+MIN_RADIUS_FLOOR_PX = 2.5
 
 Shape = Literal["circle", "ellipse"]
 
@@ -63,6 +67,22 @@ class DetectorConfig:
     #: Blob search at 1/downscale resolution (1 or 2); marks are measured at full resolution,
     #: whole ones of ``fine_radius`` or more in the search image.
     downscale: int = 2
+    #: Search only pixels whose hue is a palette colour's (within ``hue_margin``): saturated
+    #: surfaces of other hues stay out of the marks' blobs.
+    hue_gate: bool = True
+    #: A blob that gives no mark and holds several palette colours is read once more per
+    #: colour (a mark against a large region of another palette colour: sky, foliage).
+    split_colours: bool = True
+    #: The horizon prior (paper §3.1: marks stand at camera height, so their centres lie near
+    #: the horizon row): with ``horizon_row`` set (px, full resolution; the principal point's row
+    #: for a level camera) only marks whose centre lies within ``horizon_tolerance_px`` of it are
+    #: searched and reported. The tolerance covers pitch, roll and uneven floors.
+    horizon_row: float | None = None
+    horizon_tolerance_px: float = 24.0
+    #: ``min_radius`` and ``min_partial_radius`` hold for frames this wide; wider frames scale
+    #: them up in proportion (a 1280-px frame of the same scene has marks twice as large, and
+    #: clutter twice as many pixels to look round in). ``None``: fixed pixels.
+    reference_width: int | None = 640
     #: Side of the square opening applied to the search mask (odd, 1 = none).
     open_size: int = 3
     #: Smallest and largest semi-major axis reported (px); ``None`` = no upper limit.
@@ -106,6 +126,30 @@ class DetectorConfig:
     max_continued: float = 0.15
     #: Marks scoring lower than this are dropped.
     min_score: float = 0.05
+
+    @classmethod
+    def for_camera(cls, *, focal_px: float, mark_radius_mm: float, max_range_mm: float,
+                   floor_px: float = MIN_RADIUS_FLOOR_PX, **kwargs: Any) -> DetectorConfig:
+        """A config whose minimum radius is that of a mark at ``max_range_mm`` (pinhole model,
+        r = f·R/d, less 10 % for blur and yaw), not below ``floor_px`` (the smallest disc the
+        pipeline measures: 2.5 px). Partial marks need 1.6× that. Pixels are the camera's own
+        (``reference_width`` None)."""
+        if not (focal_px > 0 and mark_radius_mm > 0 and max_range_mm > 0):
+            raise ValueError("focal_px, mark_radius_mm and max_range_mm must be positive")
+        r_min = max(floor_px, 0.9 * focal_px * mark_radius_mm / max_range_mm)
+        kwargs.setdefault("min_radius", r_min)
+        kwargs.setdefault("min_partial_radius", max(kwargs["min_radius"], 1.6 * r_min))
+        kwargs.setdefault("reference_width", None)
+        return cls(**kwargs)
+
+    def for_width(self, width: int) -> DetectorConfig:
+        """This config for frames ``width`` px wide (see ``reference_width``)."""
+        ref = self.reference_width
+        if ref is None or width <= ref:
+            return self
+        k = width / ref
+        return replace(self, min_radius=self.min_radius * k,
+                       min_partial_radius=self.min_partial_radius * k, reference_width=None)
 
     def __post_init__(self) -> None:
         if self.open_size < 1 or self.open_size % 2 == 0:
