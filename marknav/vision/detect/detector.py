@@ -110,6 +110,7 @@ class Detector(_ArcMarks):
         min_area = 0.4 * math.pi * (cfg.min_radius / scale) ** 2
         band = self._horizon_band(h, scale)
         marks: list[Mark] = []
+        leftovers: list[Contour] = []
         for contour in contours:
             if len(contour) < 6:
                 continue
@@ -123,7 +124,11 @@ class Detector(_ArcMarks):
             found = self._blob(frame, contour, area)
             if not found and cfg.split_colours:
                 found = self._split_colours(frame, contour, area, min_area)
+            if not found:
+                leftovers.append(contour)
             marks.extend(found)
+        if cfg.bridge_px > 0 and len(leftovers) >= 2:
+            marks.extend(self._bridged(frame, leftovers, min_area))
         if band is not None:
             lo, hi = (band[0] + 0.5) * scale - 0.5, (band[1] + 0.5) * scale - 0.5
             marks = [m for m in marks if lo <= m.y <= hi]
@@ -139,6 +144,43 @@ class Detector(_ArcMarks):
         row = (cfg.horizon_row + 0.5) / scale - 0.5
         tol = cfg.horizon_tolerance_px / scale
         return (row - tol, row + tol)
+
+    def _bridged(self, frame: _Frame, leftovers: list[Contour],
+                 min_area: float) -> list[Mark]:
+        """Whole marks cut into pieces by thin occluders: the blobs that gave no mark, closed
+        across gaps of up to ``bridge_px`` (full-resolution px); a closed blob made of two or
+        more of them is tried as one whole mark, its measurement closed across the occluder."""
+        cfg = self.config
+        sh, sw = frame.mask.shape
+        joined = np.zeros((sh, sw), np.uint8)
+        cv2.drawContours(joined, leftovers, -1, 255, cv2.FILLED)
+        cv2.bitwise_and(joined, frame.mask, dst=joined)
+        # The opening and the blur widen the gap by about a search pixel on each side.
+        k = 2 * math.ceil((cfg.bridge_px / frame.sx + 2.0) / 2.0) + 1
+        closed = cv2.morphologyEx(joined, cv2.MORPH_CLOSE,
+                                  cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
+        contours, _ = cv2.findContours(closed, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+        if len(contours) >= len(leftovers):
+            return []  # nothing joined
+        firsts = [tuple(float(v) for v in c[0, 0]) for c in leftovers]
+        marks: list[Mark] = []
+        for contour in contours:
+            if len(contour) < 6 or cv2.contourArea(contour) < min_area:
+                continue
+            pieces = sum(cv2.pointPolygonTest(contour, p, False) >= 0 for p in firsts)
+            if pieces < 2:
+                continue
+            bx, by, bw, bh = cv2.boundingRect(contour)
+            if bx <= 0 or by <= 0 or bx + bw >= sw or by + bh >= sh:
+                continue
+            coarse = self._whole_fit(contour, tolerance_px=1.5)
+            if coarse is None:
+                continue
+            mark = self._measure_whole(frame, self._to_full(frame, coarse), None, 1.0,
+                                       bridge_px=cfg.bridge_px)
+            if mark is not None:
+                marks.append(mark)
+        return marks
 
     def _split_colours(self, frame: _Frame, contour: Contour, area: float,
                        min_area: float) -> list[Mark]:

@@ -73,6 +73,9 @@ class DetectorConfig:
     #: A blob that gives no mark and holds several palette colours is read once more per
     #: colour (a mark against a large region of another palette colour: sky, foliage).
     split_colours: bool = True
+    #: Widest thin occluder (pole, wire, seam; full-resolution px) a whole mark is joined
+    #: across when its pieces give no mark on their own. 0: never joined.
+    bridge_px: float = 8.0
     #: The horizon prior (paper §3.1: marks stand at camera height, so their centres lie near
     #: the horizon row): with ``horizon_row`` set (px, full resolution; the principal point's row
     #: for a level camera) only marks whose centre lies within ``horizon_tolerance_px`` of it are

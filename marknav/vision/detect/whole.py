@@ -78,7 +78,7 @@ class _WholeMarks(_ColourStage):
 
     def _measure_whole(self, frame: _Frame, coarse: _Ellipse, colour: int | None,
                        purity: float, exclude: tuple[Mat, int, int] | None = None,
-                       ) -> Mark | None:
+                       bridge_px: float = 0.0) -> Mark | None:
         """A whole mark measured near its coarse ellipse (full-resolution pixels): the pixels
         with α >= 0.5 inside the coarse outline grown by ``_DOMAIN`` px give area, centroid and
         shape (image moments); the pixel/ellipse mismatch checks the shape. ``exclude`` (a mask
@@ -96,7 +96,7 @@ class _WholeMarks(_ColourStage):
             sx, sy = frame.sx, frame.sy
             local = _Ellipse((coarse.cx + 0.5) / sx - 0.5, (coarse.cy + 0.5) / sy - 0.5,
                              coarse.a / sx, coarse.b / sy, coarse.theta)
-            measured = self._measure_in(frame.small, local, None, sx)
+            measured = self._measure_in(frame.small, local, None, sx, bridge_px)
             if measured is None:
                 return None
             e = measured.ellipse
@@ -104,7 +104,7 @@ class _WholeMarks(_ColourStage):
                               e.b * sy, e.theta)
             balanced = measured.mark_bgr  # the search image is white-balanced
         else:
-            measured = self._measure_in(frame.image, coarse, exclude)
+            measured = self._measure_in(frame.image, coarse, exclude, 1.0, bridge_px)
             if measured is None:
                 return None
             fitted = measured.ellipse
@@ -138,7 +138,7 @@ class _WholeMarks(_ColourStage):
 
     def _measure_in(self, image: Mat, coarse: _Ellipse,
                     exclude: tuple[Mat, int, int] | None,
-                    scale: float = 1.0) -> _Measured | None:
+                    scale: float = 1.0, bridge_px: float = 0.0) -> _Measured | None:
         """The α >= 0.5 pixels near ``coarse``, in ``image``'s own pixels (``scale`` full
         pixels each): their ellipse, its outline error and the mark's mean colour."""
         h, w = image.shape[:2]
@@ -170,6 +170,13 @@ class _WholeMarks(_ColourStage):
         binary = cv2.threshold(cv2.transform(roi, transform), 127, 255, cv2.THRESH_BINARY)[1]
         cv2.bitwise_and(binary, domain, dst=binary)
         cv2.bitwise_or(binary, inner, dst=binary)
+        if bridge_px > 0:
+            # Thin occluders across the mark (poles, wires, seams) up to ``bridge_px`` wide:
+            # a closing restores the disc (it leaves a convex outline as it is).
+            k = 2 * math.ceil((bridge_px / scale + 2.0) / 2.0) + 1
+            kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
+            cv2.morphologyEx(binary, cv2.MORPH_CLOSE, kernel, dst=binary)
+            cv2.bitwise_and(binary, domain, dst=binary)
         fitted = _moments_ellipse(cv2.moments(binary, binaryImage=True))
         if fitted is None:
             return None
