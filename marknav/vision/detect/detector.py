@@ -16,6 +16,7 @@ import math
 
 import cv2
 import numpy as np
+import numpy.typing as npt
 
 from marknav.vision.detect.arcs import _ArcMarks
 from marknav.vision.detect.base import _Frame
@@ -110,7 +111,7 @@ class Detector(_ArcMarks):
         min_area = 0.4 * math.pi * (cfg.min_radius / scale) ** 2
         band = self._horizon_band(h, scale)
         marks: list[Mark] = []
-        leftovers: list[Contour] = []
+        leftovers: list[tuple[Contour, int]] = []
         for contour in contours:
             if len(contour) < 6:
                 continue
@@ -122,13 +123,20 @@ class Detector(_ArcMarks):
                 if y > band[1] or y + bh < band[0]:
                     continue
             found = self._blob(frame, contour, area)
+            pieces: list[tuple[Contour, int]] = []
             if not found and cfg.split_colours:
-                found = self._split_colours(frame, contour, area, min_area)
-            if not found:
-                leftovers.append(contour)
+                found, pieces = self._split_hues(frame, contour, area, min_area)
+            # Every blob may be a piece of a mark cut by a thin occluder (a piece can give a
+            # partial mark of the wrong size on its own: the joined whole then outscores it).
+            leftovers.extend(pieces if pieces else [(contour, -1)])
             marks.extend(found)
         if cfg.bridge_px > 0 and len(leftovers) >= 2:
-            marks.extend(self._bridged(frame, leftovers, min_area))
+            groups: dict[int, list[Contour]] = {}
+            for piece, group in leftovers:
+                groups.setdefault(group, []).append(piece)
+            for group_pieces in groups.values():
+                if len(group_pieces) >= 2:
+                    marks.extend(self._bridged(frame, group_pieces, min_area))
         if band is not None:
             lo, hi = (band[0] + 0.5) * scale - 0.5, (band[1] + 0.5) * scale - 0.5
             marks = [m for m in marks if lo <= m.y <= hi]
@@ -173,7 +181,9 @@ class Detector(_ArcMarks):
             bx, by, bw, bh = cv2.boundingRect(contour)
             if bx <= 0 or by <= 0 or bx + bw >= sw or by + bh >= sh:
                 continue
-            coarse = self._whole_fit(contour, tolerance_px=1.5)
+            # A tilted occluder leaves a notch where it leaves the outline: a looser coarse fit
+            # (the measurement, closed across the occluder, checks the outline again).
+            coarse = self._whole_fit(contour, tolerance_px=2.5)
             if coarse is None:
                 continue
             mark = self._measure_whole(frame, self._to_full(frame, coarse), None, 1.0,
@@ -182,35 +192,49 @@ class Detector(_ArcMarks):
                 marks.append(mark)
         return marks
 
-    def _split_colours(self, frame: _Frame, contour: Contour, area: float,
-                       min_area: float) -> list[Mark]:
-        """A blob that gave no mark, read once more per palette colour: a mark touching a
-        large region of another palette colour (a red disc against blue sky, a blue one
-        against green foliage) is its own colour's part of the blob, cut out by its own outline.
-        """
+    def _split_hues(self, frame: _Frame, contour: Contour, area: float,
+                    min_area: float) -> tuple[list[Mark], list[tuple[Contour, int]]]:
+        """A blob that gave no mark, read once more per hue cluster: a mark touching a large
+        region of another palette colour (a red disc against blue sky, a blue one against
+        green foliage) or of a near hue inside the same colour's range (a violet board behind a
+        blue mark) is its own cluster's part of the blob, cut out by its own outline.
+
+        Returns the marks found and the pieces, each with its cluster's palette colour (for
+        joining pieces across thin occluders); no pieces when the blob is one cluster."""
+        cfg = self.config
         bx, by, bw, bh = cv2.boundingRect(contour)
         region = np.zeros((bh, bw), np.uint8)
         cv2.drawContours(region, [contour], -1, 255, cv2.FILLED, offset=(-bx, -by))
         cv2.bitwise_and(region, frame.mask[by:by + bh, bx:bx + bw], dst=region)
-        labels = cv2.LUT(np.ascontiguousarray(frame.hsv[by:by + bh, bx:bx + bw, 0]),
-                         self._hue_lut)
-        hist = cv2.calcHist([labels], [0], region, [len(self.palette)],
-                            [0, len(self.palette)]).ravel()
-        present = [k for k in range(len(self.palette)) if hist[k] >= min_area]
-        if len(present) < 2:
-            return []
+        hue = np.ascontiguousarray(frame.hsv[by:by + bh, bx:bx + bw, 0])
+        hist = np.asarray(cv2.calcHist([hue], [0], region, [HUE_MAX], [0, HUE_MAX]),
+                          np.float64).ravel()
+        peaks = _hue_peaks(hist, min_area, cfg.split_hue_gap)
+        if len(peaks) < 2:
+            return [], []
+        # Each hue goes to its nearest peak (circular distance).
+        hues = np.arange(HUE_MAX, dtype=np.float64)
+        dist = np.abs((hues[:, None] - np.asarray(peaks, np.float64)[None, :] + 90.0)
+                      % HUE_MAX - 90.0)
+        lut = np.full(256, _NO_COLOUR, np.uint8)
+        lut[:HUE_MAX] = np.argmin(dist, axis=1).astype(np.uint8)
+        clusters = cv2.LUT(hue, lut)
         marks: list[Mark] = []
-        for k in present:
-            own = cv2.bitwise_and(cv2.inRange(labels, k, k), region)
+        pieces: list[tuple[Contour, int]] = []
+        for k, peak in enumerate(peaks):
+            own = cv2.bitwise_and(cv2.inRange(clusters, k, k), region)
             own = cv2.morphologyEx(own, cv2.MORPH_OPEN, self._kernel3)
             parts, _ = cv2.findContours(own, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
                                         offset=(bx, by))
+            colour = self._colour_of_hue(peak)
+            group = -2 if colour is None else colour
             for part in parts:
                 part_area = cv2.contourArea(part)
-                if len(part) < 6 or part_area < min_area or part_area > 0.95 * area:
+                if len(part) < 6 or part_area < min_area or part_area > 0.97 * area:
                     continue
                 marks.extend(self._blob(frame, part, part_area))
-        return marks
+                pieces.append((part, group))
+        return marks, pieces
 
     def _blob(self, frame: _Frame, contour: Contour, area: float) -> list[Mark]:
         cfg = self.config
@@ -289,6 +313,34 @@ class Detector(_ArcMarks):
         if len(marks) > len(single) or len(marks) == len(single) >= 2:
             return marks
         return single
+
+
+def _window_sum(hist: npt.NDArray[np.float64], half: int) -> npt.NDArray[np.float64]:
+    """Sum of a circular histogram over ±``half`` bins around each bin."""
+    padded = np.concatenate([hist[-half - 1:], hist, hist[:half]])
+    cs = np.cumsum(padded)
+    out: npt.NDArray[np.float64] = cs[2 * half + 1:] - cs[:len(hist)]
+    return out
+
+
+def _hue_peaks(hist: npt.NDArray[np.float64], min_count: float, gap: float) -> list[float]:
+    """Hues (OpenCV units) of the separate clusters of a circular hue histogram: local maxima of
+    the histogram smoothed over ±2 hue, at least ``gap`` apart, each holding ``min_count``
+    pixels within ``gap / 2`` of it, largest first."""
+    n = len(hist)
+    smooth = _window_sum(hist, 2)
+    near = _window_sum(hist, max(1, int(gap // 2)))
+    left = np.concatenate([smooth[-1:], smooth[:-1]])
+    right = np.concatenate([smooth[1:], smooth[:1]])
+    is_peak = (smooth > 0) & (smooth >= left) & (smooth >= right) & (near >= min_count)
+    candidates = np.flatnonzero(is_peak)
+    if len(candidates) < 2:
+        return []
+    peaks: list[float] = []
+    for i in candidates[np.argsort(-smooth[candidates], kind="stable")].tolist():
+        if all(abs((i - p + n / 2) % n - n / 2) >= gap for p in peaks):
+            peaks.append(float(i))
+    return peaks
 
 
 def detect_marks(image: U8Array, palette: Palette = DEFAULT_PALETTE) -> list[Mark]:

@@ -14,10 +14,13 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import cv2
 import numpy as np
+import numpy.typing as npt
 
 from marknav.vision.detect.base import _Frame
 from marknav.vision.detect.colour import _ColourStage, _hsv
@@ -38,6 +41,12 @@ log = logging.getLogger("marknav.vision.detect")
 #: pixels outside the domain are the background.
 _DOMAIN = 4.0
 _BACK = 8.0
+#: Sectors around a whole mark whose backgrounds are told apart when they differ.
+_SECTORS = 8
+#: Chroma difference (BGR units, grey removed) between two sectors' backgrounds from which
+#: they are told apart (a textured floor or a cast stays below it; a board of a near colour,
+#: a wood floor under a grey wall do not).
+_SECTOR_SPREAD = 30.0
 
 
 @dataclass
@@ -168,6 +177,7 @@ class _WholeMarks(_ColourStage):
         if transform is None:
             return None
         binary = cv2.threshold(cv2.transform(roi, transform), 127, 255, cv2.THRESH_BINARY)[1]
+        self._sector_alpha(roi, local, back, mark_bgr, binary)
         cv2.bitwise_and(binary, domain, dst=binary)
         cv2.bitwise_or(binary, inner, dst=binary)
         if bridge_px > 0:
@@ -184,3 +194,47 @@ class _WholeMarks(_ColourStage):
         error = mismatch / max(fitted.perimeter(), 1.0)
         out = _Ellipse(fitted.cx + x0, fitted.cy + y0, fitted.a, fitted.b, fitted.theta)
         return _Measured(out, error, (mark_bgr[0], mark_bgr[1], mark_bgr[2]))
+
+    def _sector_alpha(self, roi: Mat, local: _Ellipse, back: Mat,
+                      mark_bgr: Sequence[float], binary: Mat) -> None:
+        """Where the background differs around the mark (a floor below it and a wall above, a
+        board of a near colour behind half of it), ``binary`` is redone per sector of
+        ``_SECTORS`` around the centre, each against its own background's colour: against
+        the mean background, a near-colour board counts as half mark."""
+        ys, xs = np.nonzero(back)
+        if len(ys) < 8:
+            return
+        step = max(1, len(ys) // 384)  # a few hundred samples tell the sectors' colours
+        ys, xs = ys[::step], xs[::step]
+        sectors = _sector_of(xs - local.cx, ys - local.cy)
+        counts = np.bincount(sectors, minlength=_SECTORS).astype(np.float64)
+        pixels = roi[ys, xs].astype(np.float64)
+        sums = np.stack([np.bincount(sectors, weights=pixels[:, c], minlength=_SECTORS)
+                         for c in range(3)], axis=1)
+        known = counts >= 3
+        if int(known.sum()) < 2:
+            return
+        means = sums[known] / counts[known, None]
+        chroma = means - means.mean(axis=1, keepdims=True)
+        diff = chroma[:, None, :] - chroma[None, :, :]
+        if float(np.max(np.einsum("ijk,ijk->ij", diff, diff))) < _SECTOR_SPREAD ** 2:
+            return
+        h, w = roi.shape[:2]
+        yy, xx = np.mgrid[0:h, 0:w]
+        sector = _sector_of(xx - local.cx, yy - local.cy)
+        for k, sector_bgr in zip(np.flatnonzero(known).tolist(), means.tolist(), strict=True):
+            transform = self._alpha_transform(mark_bgr, sector_bgr)
+            if transform is None:
+                continue
+            part = cv2.threshold(cv2.transform(roi, transform), 127, 255, cv2.THRESH_BINARY)[1]
+            wedge = sector == k
+            binary[wedge] = part[wedge]
+
+
+def _sector_of(dx: npt.NDArray[np.floating[Any]], dy: npt.NDArray[np.floating[Any]],
+               ) -> npt.NDArray[np.intp]:
+    """Index (0.._SECTORS-1) of the angular sector of each offset from a centre."""
+    ang = np.arctan2(dy, dx)
+    out: npt.NDArray[np.intp] = (np.floor((ang + math.pi) * (_SECTORS / (2.0 * math.pi)))
+                                 .astype(np.intp) % _SECTORS)
+    return out
