@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import cv2
 import numpy as np
@@ -111,7 +112,6 @@ class Detector(_ArcMarks):
         min_area = 0.4 * math.pi * (cfg.min_radius / scale) ** 2
         band = self._horizon_band(h, scale)
         marks: list[Mark] = []
-        leftovers: list[tuple[Contour, int]] = []
         for contour in contours:
             if len(contour) < 6:
                 continue
@@ -123,20 +123,13 @@ class Detector(_ArcMarks):
                 if y > band[1] or y + bh < band[0]:
                     continue
             found = self._blob(frame, contour, area)
-            pieces: list[tuple[Contour, int]] = []
             if not found and cfg.split_colours:
-                found, pieces = self._split_hues(frame, contour, area, min_area)
-            # Every blob may be a piece of a mark cut by a thin occluder (a piece can give a
-            # partial mark of the wrong size on its own: the joined whole then outscores it).
-            leftovers.extend(pieces if pieces else [(contour, -1)])
+                found = self._split_hues(frame, contour, area, min_area)
             marks.extend(found)
-        if cfg.bridge_px > 0 and len(leftovers) >= 2:
-            groups: dict[int, list[Contour]] = {}
-            for piece, group in leftovers:
-                groups.setdefault(group, []).append(piece)
-            for group_pieces in groups.values():
-                if len(group_pieces) >= 2:
-                    marks.extend(self._bridged(frame, group_pieces, min_area))
+        if cfg.bridge_px > 0 and len(contours) >= 2:
+            # Any blobs may be pieces of a mark cut by a thin occluder (a piece can give a
+            # partial mark of the wrong size on its own: the joined whole then outscores it).
+            marks.extend(self._bridged(frame, contours, min_area))
         if band is not None:
             lo, hi = (band[0] + 0.5) * scale - 0.5, (band[1] + 0.5) * scale - 0.5
             marks = [m for m in marks if lo <= m.y <= hi]
@@ -153,56 +146,81 @@ class Detector(_ArcMarks):
         tol = cfg.horizon_tolerance_px / scale
         return (row - tol, row + tol)
 
-    def _bridged(self, frame: _Frame, leftovers: list[Contour],
+    def _bridged(self, frame: _Frame, contours: Sequence[Contour],
                  min_area: float) -> list[Mark]:
-        """Whole marks cut into pieces by thin occluders: the blobs that gave no mark, closed
-        across gaps of up to ``bridge_px`` (full-resolution px); a closed blob made of two or
-        more of them is tried as one whole mark, its measurement closed across the occluder."""
+        """Whole marks cut into pieces by thin occluders: the search mask closed across gaps
+        of up to ``bridge_px`` (full-resolution px); where that joins blobs, each palette
+        colour's pixels there are closed on their own, and a closed shape made of two or more
+        pieces is tried as one whole mark, its measurement closed across the occluder."""
         cfg = self.config
         sh, sw = frame.mask.shape
-        joined = np.zeros((sh, sw), np.uint8)
-        cv2.drawContours(joined, leftovers, -1, 255, cv2.FILLED)
-        cv2.bitwise_and(joined, frame.mask, dst=joined)
         # The opening and the blur widen the gap by about a search pixel on each side.
         k = 2 * math.ceil((cfg.bridge_px / frame.sx + 2.0) / 2.0) + 1
-        closed = cv2.morphologyEx(joined, cv2.MORPH_CLOSE,
-                                  cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
-        contours, _ = cv2.findContours(closed, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
-        if len(contours) >= len(leftovers):
+        kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
+        closed = cv2.morphologyEx(frame.mask, cv2.MORPH_CLOSE, kernel)
+        joined, _ = cv2.findContours(closed, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+        if len(joined) >= len(contours):
             return []  # nothing joined
-        firsts = [tuple(float(v) for v in c[0, 0]) for c in leftovers]
+        firsts = [tuple(float(v) for v in c[0, 0]) for c in contours]
         marks: list[Mark] = []
-        for contour in contours:
-            if len(contour) < 6 or cv2.contourArea(contour) < min_area:
+        for outline in joined:
+            if len(outline) < 6 or cv2.contourArea(outline) < 2 * min_area:
                 continue
-            pieces = sum(cv2.pointPolygonTest(contour, p, False) >= 0 for p in firsts)
-            if pieces < 2:
+            if sum(cv2.pointPolygonTest(outline, p, False) >= 0 for p in firsts) < 2:
                 continue
-            bx, by, bw, bh = cv2.boundingRect(contour)
-            if bx <= 0 or by <= 0 or bx + bw >= sw or by + bh >= sh:
+            whole = self._bridged_one(frame, outline, min_area)
+            if whole:
+                marks.extend(whole)
                 continue
-            # A tilted occluder leaves a notch where it leaves the outline: a looser coarse fit
-            # (the measurement, closed across the occluder, checks the outline again).
-            coarse = self._whole_fit(contour, tolerance_px=2.5)
-            if coarse is None:
-                continue
-            mark = self._measure_whole(frame, self._to_full(frame, coarse), None, 1.0,
-                                       bridge_px=cfg.bridge_px)
-            if mark is not None:
-                marks.append(mark)
+            x0, y0, bw, bh = cv2.boundingRect(outline)
+            if bw * bh > 0.3 * sw * sh:
+                continue  # a large region (a wall, the sky): not read colour by colour
+            x0, y0 = max(0, x0 - k), max(0, y0 - k)
+            x1, y1 = min(sw, x0 + bw + 2 * k), min(sh, y0 + bh + 2 * k)
+            mask = frame.mask[y0:y1, x0:x1]
+            labels = cv2.LUT(np.ascontiguousarray(frame.hsv[y0:y1, x0:x1, 0]), self._hue_lut)
+            for colour in range(len(self.palette)):
+                own = cv2.bitwise_and(cv2.inRange(labels, colour, colour), mask)
+                if cv2.countNonZero(own) < 2 * min_area:
+                    continue
+                n, _ = cv2.connectedComponents(own)
+                if n < 3:  # background and at least two pieces
+                    continue
+                shut = cv2.morphologyEx(own, cv2.MORPH_CLOSE, kernel)
+                shapes, _ = cv2.findContours(shut, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
+                                             offset=(x0, y0))
+                for shape in shapes:
+                    marks.extend(self._bridged_one(frame, shape, min_area))
         return marks
 
+    def _bridged_one(self, frame: _Frame, shape: Contour, min_area: float) -> list[Mark]:
+        cfg = self.config
+        sh, sw = frame.mask.shape
+        if len(shape) < 6 or cv2.contourArea(shape) < min_area:
+            return []
+        bx, by, bw, bh = cv2.boundingRect(shape)
+        if bx <= 0 or by <= 0 or bx + bw >= sw or by + bh >= sh:
+            return []
+        # A tilted occluder leaves a notch where it leaves the outline: a looser coarse fit
+        # (the measurement, closed across the occluder, checks the outline again).
+        coarse = self._whole_fit(shape, tolerance_px=2.5)
+        if coarse is None:
+            return []
+        mark = self._measure_whole(frame, self._to_full(frame, coarse), None, 1.0,
+                                   bridge_px=cfg.bridge_px)
+        return [] if mark is None else [mark]
+
     def _split_hues(self, frame: _Frame, contour: Contour, area: float,
-                    min_area: float) -> tuple[list[Mark], list[tuple[Contour, int]]]:
+                    min_area: float) -> list[Mark]:
         """A blob that gave no mark, read once more per hue cluster: a mark touching a large
         region of another palette colour (a red disc against blue sky, a blue one against
         green foliage) or of a near hue inside the same colour's range (a violet board behind a
-        blue mark) is its own cluster's part of the blob, cut out by its own outline.
-
-        Returns the marks found and the pieces, each with its cluster's palette colour (for
-        joining pieces across thin occluders); no pieces when the blob is one cluster."""
+        blue mark) is its own cluster's part of the blob, cut out by its own outline."""
         cfg = self.config
         bx, by, bw, bh = cv2.boundingRect(contour)
+        if area < math.pi * (cfg.min_partial_radius / frame.sx) ** 2 or \
+                (min(bw, bh) + 1) * frame.sx < 2.0 * cfg.min_partial_radius:
+            return []  # too small or thin to hold a mark and something else
         region = np.zeros((bh, bw), np.uint8)
         cv2.drawContours(region, [contour], -1, 255, cv2.FILLED, offset=(-bx, -by))
         cv2.bitwise_and(region, frame.mask[by:by + bh, bx:bx + bw], dst=region)
@@ -211,7 +229,7 @@ class Detector(_ArcMarks):
                           np.float64).ravel()
         peaks = _hue_peaks(hist, min_area, cfg.split_hue_gap)
         if len(peaks) < 2:
-            return [], []
+            return []
         # Each hue goes to its nearest peak (circular distance).
         hues = np.arange(HUE_MAX, dtype=np.float64)
         dist = np.abs((hues[:, None] - np.asarray(peaks, np.float64)[None, :] + 90.0)
@@ -220,21 +238,17 @@ class Detector(_ArcMarks):
         lut[:HUE_MAX] = np.argmin(dist, axis=1).astype(np.uint8)
         clusters = cv2.LUT(hue, lut)
         marks: list[Mark] = []
-        pieces: list[tuple[Contour, int]] = []
-        for k, peak in enumerate(peaks):
+        for k in range(len(peaks)):
             own = cv2.bitwise_and(cv2.inRange(clusters, k, k), region)
             own = cv2.morphologyEx(own, cv2.MORPH_OPEN, self._kernel3)
             parts, _ = cv2.findContours(own, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
                                         offset=(bx, by))
-            colour = self._colour_of_hue(peak)
-            group = -2 if colour is None else colour
             for part in parts:
                 part_area = cv2.contourArea(part)
                 if len(part) < 6 or part_area < min_area or part_area > 0.97 * area:
                     continue
                 marks.extend(self._blob(frame, part, part_area))
-                pieces.append((part, group))
-        return marks, pieces
+        return marks
 
     def _blob(self, frame: _Frame, contour: Contour, area: float) -> list[Mark]:
         cfg = self.config
