@@ -46,7 +46,8 @@ import numpy.typing as npt
 
 from marknav.clock import Clock
 from marknav.planning.kinematics import Pose
-from marknav.sim.world import Background, ClutterItem, World, clutter_items
+from marknav.sim.scenery import draw_poles, near_hues, paint_distractors, paint_room, poles
+from marknav.sim.world import Background, ClutterItem, Conditions, World, clutter_items
 from marknav.vision.palette import ColourRange
 from marknav.vision.sources import Frame, Image
 
@@ -315,7 +316,8 @@ def _draw_clutter(
 
 @functools.lru_cache(maxsize=4)
 def _panorama(
-    background: Background, gains_bgr: tuple[float, float, float], config: CameraConfig
+    background: Background, gains_bgr: tuple[float, float, float], config: CameraConfig,
+    room: Conditions | None = None, near: tuple[float, ...] = (),
 ) -> Image:
     """The background for every heading: H × Wp × 3 (Wp = 2πf columns), gains applied.
     Cached: worlds that differ only in their marks share it (treat it as read-only)."""
@@ -348,6 +350,8 @@ def _panorama(
     grain = rng.standard_normal((h, wp), dtype=np.float32)
     amp = np.where(np.arange(h)[:, None] < base_row, 9.0, 14.0).astype(np.float32)
     pan += (amp * shade + 3.0 * grain)[:, :, None]
+    if room is not None:
+        paint_room(pan, base_row, background.seed, room)
     # Skirting board.
     pan[max(0, base_row - 5):base_row] *= 0.45
     gains = np.array(gains_bgr)
@@ -356,7 +360,17 @@ def _panorama(
     np.copyto(out, np.clip(np.rint(pan), 0, 255), casting="unsafe")
     for item in clutter_items(background):  # on the 8-bit image: OpenCV anti-aliases only 8-bit
         _draw_clutter(out, item, config, wp, gains)
+    if room is not None:
+        paint_distractors(out, background.seed, room.distractors, near, config.focal_px, cy,
+                          gains)
     return out
+
+
+def _room(conditions: Conditions) -> Conditions | None:
+    """The conditions when they ask for a harder room (the panorama's cache key), else None."""
+    plain = conditions.floor == "plain" and conditions.wall == "plain" and \
+        conditions.wall_hue is None and conditions.distractors == 0
+    return None if plain else conditions
 
 
 @functools.lru_cache(maxsize=4)
@@ -392,8 +406,11 @@ class Renderer:
             bgr = np.minimum(np.array(mark_bgr(by_name[m.colour])) * gains, 255.0)
             self._colours.append((float(bgr[0]), float(bgr[1]), float(bgr[2])))
         self._geometry = _MarkGeometry(world)
-        pan = _panorama(world.background, world.conditions.channel_gains_bgr(), config)
+        cond = world.conditions
+        pan = _panorama(world.background, cond.channel_gains_bgr(), config, _room(cond),
+                        tuple(near_hues([(c.hue_lo, c.hue_hi) for c in palette])))
         self._wp = pan.shape[1]
+        self._poles = poles(world.background.seed, cond.occluders, self._wp, config.focal_px)
         self._blur = world.conditions.blur_sigma_px
         # Blur kernel radius; the panorama is padded by it on both sides so that any window
         # the blur needs exists around the image.
@@ -464,6 +481,8 @@ class Renderer:
             self._draw(roi, marks, float(su0), float(sv0))
             cv2.GaussianBlur(roi, self._ksize, self._blur, dst=roi)
             img[v0:v1 + 1, u0:u1 + 1] = roi[v0 - sv0:v1 - sv0 + 1, k:k + u1 - u0 + 1]
+        if self._poles:
+            draw_poles(img, self._poles, c0 - self._margin, self._wp)
         if self._noise is not None and rng is not None:
             pos, neg = self._noise
             oy = int(rng.integers(0, h + 1))

@@ -41,6 +41,7 @@ from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, field_validator,
 
 from marknav.errors import InputError, InputErrors
 from marknav.planning.kinematics import Pose, wrap_angle
+from marknav.sim.scenery import random_room
 from marknav.vision.palette import ColourRange
 from marknav.yamlio import Position, load_yaml_file, parse_model
 
@@ -236,6 +237,10 @@ class Conditions(_Strict):
       left's for the same command (e.g. unequal tyres); the encoders do not see it.
     - ``wheel_slip``: fraction of each wheel's travel lost to slip; the encoders do not see it.
     - ``latency_frames``: the camera delivers the frame taken this many reads earlier.
+    - Room (:mod:`marknav.sim.scenery`): ``floor`` (``plain``, ``wood``, ``carpet``) at
+      ``floor_saturation``; ``wall`` (``plain`` or ``photo``); ``wall_hue`` (a hue that dominates
+      the scene, or none); ``occluders`` (thin poles in front of the marks); ``distractors``
+      (round objects of near-mark colours on the horizon, off the course).
     """
 
     lighting_gain: _Gain = 1.0
@@ -245,6 +250,12 @@ class Conditions(_Strict):
     wheel_mismatch: Annotated[float, Field(ge=-0.5, le=0.5, allow_inf_nan=False)] = 0.0
     wheel_slip: Annotated[float, Field(ge=0.0, lt=1.0, allow_inf_nan=False)] = 0.0
     latency_frames: Annotated[int, Field(ge=0, le=30)] = 0
+    floor: Literal["plain", "wood", "carpet"] = "plain"
+    floor_saturation: Annotated[float, Field(ge=0.0, le=255.0, allow_inf_nan=False)] = 120.0
+    wall: Literal["plain", "photo"] = "plain"
+    wall_hue: Annotated[float, Field(ge=0.0, lt=180.0, allow_inf_nan=False)] | None = None
+    occluders: Annotated[int, Field(ge=0, le=20)] = 0
+    distractors: Annotated[int, Field(ge=0, le=40)] = 0
 
     @field_validator("cast", mode="before")
     @classmethod
@@ -435,6 +446,7 @@ def generate_world(
         cond = conditions
     elif randomised:
         cond = random_conditions(rng)
+        cond = cond.model_copy(update=random_room(int(seed)))  # harder rooms, own stream
     elif conditions == "default":
         cond = Conditions()
     else:

@@ -1,0 +1,362 @@
+"""The pipeline: search mask at half resolution, cheap rejection, then per blob the fast path
+(:mod:`.whole`) or the arc path (:mod:`.arcs`), then suppression (:mod:`.suppress`).
+
+1. **Search at half resolution** (``DetectorConfig.downscale``): the frame is box-reduced
+   (``INTER_AREA``) and white-balanced (:mod:`.colour`); one HSV mask ``S >= sat_min,
+   V >= v_floor``, a 3×3 opening and external contours give the blobs.
+2. **Cheap rejection** with a handful of OpenCV calls: blobs too small, too thin (stripes),
+   rectangle-like (area / minimum bounding rectangle > ``max_extent``), small triangles (<
+   ``min_small_extent`` of it).
+3. Whole marks take the fast path, the rest the arc path; duplicates are suppressed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+from marknav.vision.detect.arcs import _ArcMarks
+from marknav.vision.detect.base import _Frame
+from marknav.vision.detect.colour import _NO_COLOUR, _diagonal
+from marknav.vision.detect.geometry import (
+    Contour,
+    U8Array,
+    _flat_stretch,
+    _from_rotated_rect,
+    _longest_edge,
+)
+from marknav.vision.detect.model import DetectorConfig, Mark
+from marknav.vision.detect.suppress import _suppress_duplicates
+from marknav.vision.palette import DEFAULT_PALETTE, HUE_MAX, Palette
+
+__all__ = ["Detector", "detect_marks"]
+
+
+class Detector(_ArcMarks):
+    """Finds palette-coloured circular/elliptical marks in BGR frames.
+
+    Reuse one detector for a stream of frames (it builds its lookup tables once). Not
+    thread-safe: use one detector per thread.
+    """
+
+    def __init__(self, palette: Palette = DEFAULT_PALETTE,
+                 config: DetectorConfig | None = None) -> None:
+        if not palette:
+            raise ValueError("the palette is empty")
+        if len(palette) >= _NO_COLOUR:
+            raise ValueError(f"at most {_NO_COLOUR - 1} colours, got {len(palette)}")
+        self.palette: Palette = tuple(palette)
+        self.config = config if config is not None else DetectorConfig()
+        #: The config as given; ``config`` is it scaled for the last frame's width.
+        self._base_config = self.config
+        self._width = -1
+        self._sat_min = min(c.sat_min for c in self.palette)
+        self._val_min = min(c.val_min for c in self.palette)
+        self._uniform_floors = all(
+            c.sat_min == self._sat_min and c.val_min == self._val_min for c in self.palette
+        )
+        hue_lut = self._build_hue_lut(self.palette, self.config.hue_margin)
+        self._hue_lut = np.full(256, _NO_COLOUR, np.uint8)
+        self._hue_lut[:HUE_MAX] = hue_lut
+        self._fine_lut = self._build_fine_lut(self.palette, self.config.hue_margin)
+        self._gate_lut = np.where(self._hue_lut == _NO_COLOUR, 0, 255).astype(np.uint8)
+        self._membership = np.zeros((len(self.palette), HUE_MAX), np.float64)
+        for k in range(len(self.palette)):
+            self._membership[k, hue_lut == k] = 1.0
+        size = self.config.open_size
+        self._kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (size, size))
+        self._kernel3 = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
+        self.last_gains: tuple[float, float, float] = (1.0, 1.0, 1.0)
+        self.last_grey_level: float = 0.0
+
+    def detect(self, image: U8Array) -> list[Mark]:
+        """All marks in a BGR ``uint8`` image (H×W×3), largest first."""
+        if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.ndim != 3 \
+                or image.shape[2] != 3:
+            raise ValueError("detect() needs a BGR uint8 image of shape (H, W, 3)")
+        h, w = image.shape[:2]
+        if w != self._width:
+            self._width = w
+            self.config = self._base_config.for_width(w)
+        cfg = self.config
+        scale = cfg.downscale if min(h, w) >= 64 * cfg.downscale else 1
+        if scale > 1:
+            sw, sh = w // scale, h // scale
+            small = cv2.resize(image, (sw, sh), interpolation=cv2.INTER_AREA)
+        else:
+            sw, sh, small = w, h, image
+        if cfg.white_balance:
+            gains, grey = self.white_balance(small)
+        else:
+            gains, grey = (1.0, 1.0, 1.0), float(np.mean(cv2.mean(small)[:3]))
+        self.last_gains, self.last_grey_level = gains, grey
+        balance = None
+        if max(abs(g - 1.0) for g in gains) > 0.02:
+            balance = _diagonal(gains)
+            small = cv2.transform(small, balance)
+        hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
+        v_floor = self._value_floor(grey)
+        mask = cv2.inRange(hsv, (0, self._sat_min, v_floor), (255, 255, 255))
+        if cfg.hue_gate:
+            # Only hues of the palette: a saturated floor, wall or board of another hue (wood
+            # beside a red mark, teal beside green) is background, not part of a mark's blob.
+            cv2.bitwise_and(mask, cv2.LUT(hsv[:, :, 0], self._gate_lut), dst=mask)
+        if cfg.open_size > 1:
+            mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, self._kernel)
+        contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+        frame = _Frame(image, w, h, small, hsv, mask, w / sw, h / sh, balance, v_floor)
+        min_area = 0.4 * math.pi * (cfg.min_radius / scale) ** 2
+        band = self._horizon_band(h, scale)
+        marks: list[Mark] = []
+        for contour in contours:
+            if len(contour) < 6:
+                continue
+            area = cv2.contourArea(contour)
+            if area < min_area:
+                continue
+            if band is not None:
+                _, y, _, bh = cv2.boundingRect(contour)
+                if y > band[1] or y + bh < band[0]:
+                    continue
+            found = self._blob(frame, contour, area)
+            if not found and cfg.split_colours:
+                found = self._split_hues(frame, contour, area, min_area)
+            marks.extend(found)
+        if cfg.bridge_px > 0 and len(contours) >= 2:
+            # Any blobs may be pieces of a mark cut by a thin occluder (a piece can give a
+            # partial mark of the wrong size on its own: the joined whole then outscores it).
+            marks.extend(self._bridged(frame, contours, min_area))
+        if band is not None:
+            lo, hi = (band[0] + 0.5) * scale - 0.5, (band[1] + 0.5) * scale - 0.5
+            marks = [m for m in marks if lo <= m.y <= hi]
+        marks = _suppress_duplicates(marks)
+        marks.sort(key=lambda m: (-m.radius, m.x, m.y))
+        return marks
+
+    def _horizon_band(self, height: int, scale: int) -> tuple[float, float] | None:
+        """Rows (search resolution) where mark centres may lie, or None without the prior."""
+        cfg = self.config
+        if cfg.horizon_row is None:
+            return None
+        row = (cfg.horizon_row + 0.5) / scale - 0.5
+        tol = cfg.horizon_tolerance_px / scale
+        return (row - tol, row + tol)
+
+    def _bridged(self, frame: _Frame, contours: Sequence[Contour],
+                 min_area: float) -> list[Mark]:
+        """Whole marks cut into pieces by thin occluders: the search mask closed across gaps
+        of up to ``bridge_px`` (full-resolution px); where that joins blobs, each palette
+        colour's pixels there are closed on their own, and a closed shape made of two or more
+        pieces is tried as one whole mark, its measurement closed across the occluder."""
+        cfg = self.config
+        sh, sw = frame.mask.shape
+        # The opening and the blur widen the gap by about a search pixel on each side.
+        k = 2 * math.ceil((cfg.bridge_px / frame.sx + 2.0) / 2.0) + 1
+        kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
+        closed = cv2.morphologyEx(frame.mask, cv2.MORPH_CLOSE, kernel)
+        joined, _ = cv2.findContours(closed, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+        if len(joined) >= len(contours):
+            return []  # nothing joined
+        firsts = [tuple(float(v) for v in c[0, 0]) for c in contours]
+        marks: list[Mark] = []
+        for outline in joined:
+            if len(outline) < 6 or cv2.contourArea(outline) < 2 * min_area:
+                continue
+            if sum(cv2.pointPolygonTest(outline, p, False) >= 0 for p in firsts) < 2:
+                continue
+            whole = self._bridged_one(frame, outline, min_area)
+            if whole:
+                marks.extend(whole)
+                continue
+            x0, y0, bw, bh = cv2.boundingRect(outline)
+            if bw * bh > 0.3 * sw * sh:
+                continue  # a large region (a wall, the sky): not read colour by colour
+            x0, y0 = max(0, x0 - k), max(0, y0 - k)
+            x1, y1 = min(sw, x0 + bw + 2 * k), min(sh, y0 + bh + 2 * k)
+            mask = frame.mask[y0:y1, x0:x1]
+            labels = cv2.LUT(np.ascontiguousarray(frame.hsv[y0:y1, x0:x1, 0]), self._hue_lut)
+            for colour in range(len(self.palette)):
+                own = cv2.bitwise_and(cv2.inRange(labels, colour, colour), mask)
+                if cv2.countNonZero(own) < 2 * min_area:
+                    continue
+                n, _ = cv2.connectedComponents(own)
+                if n < 3:  # background and at least two pieces
+                    continue
+                shut = cv2.morphologyEx(own, cv2.MORPH_CLOSE, kernel)
+                shapes, _ = cv2.findContours(shut, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
+                                             offset=(x0, y0))
+                for shape in shapes:
+                    marks.extend(self._bridged_one(frame, shape, min_area))
+        return marks
+
+    def _bridged_one(self, frame: _Frame, shape: Contour, min_area: float) -> list[Mark]:
+        cfg = self.config
+        sh, sw = frame.mask.shape
+        if len(shape) < 6 or cv2.contourArea(shape) < min_area:
+            return []
+        bx, by, bw, bh = cv2.boundingRect(shape)
+        if bx <= 0 or by <= 0 or bx + bw >= sw or by + bh >= sh:
+            return []
+        # A tilted occluder leaves a notch where it leaves the outline: a looser coarse fit
+        # (the measurement, closed across the occluder, checks the outline again).
+        coarse = self._whole_fit(shape, tolerance_px=2.5)
+        if coarse is None:
+            return []
+        mark = self._measure_whole(frame, self._to_full(frame, coarse), None, 1.0,
+                                   bridge_px=cfg.bridge_px)
+        return [] if mark is None else [mark]
+
+    def _split_hues(self, frame: _Frame, contour: Contour, area: float,
+                    min_area: float) -> list[Mark]:
+        """A blob that gave no mark, read once more per hue cluster: a mark touching a large
+        region of another palette colour (a red disc against blue sky, a blue one against
+        green foliage) or of a near hue inside the same colour's range (a violet board behind a
+        blue mark) is its own cluster's part of the blob, cut out by its own outline."""
+        cfg = self.config
+        bx, by, bw, bh = cv2.boundingRect(contour)
+        if area < math.pi * (cfg.min_partial_radius / frame.sx) ** 2 or \
+                (min(bw, bh) + 1) * frame.sx < 2.0 * cfg.min_partial_radius:
+            return []  # too small or thin to hold a mark and something else
+        region = np.zeros((bh, bw), np.uint8)
+        cv2.drawContours(region, [contour], -1, 255, cv2.FILLED, offset=(-bx, -by))
+        cv2.bitwise_and(region, frame.mask[by:by + bh, bx:bx + bw], dst=region)
+        hue = np.ascontiguousarray(frame.hsv[by:by + bh, bx:bx + bw, 0])
+        hist = np.asarray(cv2.calcHist([hue], [0], region, [HUE_MAX], [0, HUE_MAX]),
+                          np.float64).ravel()
+        peaks = _hue_peaks(hist, min_area, cfg.split_hue_gap)
+        if len(peaks) < 2:
+            return []
+        # Each hue goes to its nearest peak (circular distance).
+        hues = np.arange(HUE_MAX, dtype=np.float64)
+        dist = np.abs((hues[:, None] - np.asarray(peaks, np.float64)[None, :] + 90.0)
+                      % HUE_MAX - 90.0)
+        lut = np.full(256, _NO_COLOUR, np.uint8)
+        lut[:HUE_MAX] = np.argmin(dist, axis=1).astype(np.uint8)
+        clusters = cv2.LUT(hue, lut)
+        marks: list[Mark] = []
+        for k in range(len(peaks)):
+            own = cv2.bitwise_and(cv2.inRange(clusters, k, k), region)
+            own = cv2.morphologyEx(own, cv2.MORPH_OPEN, self._kernel3)
+            parts, _ = cv2.findContours(own, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
+                                        offset=(bx, by))
+            for part in parts:
+                part_area = cv2.contourArea(part)
+                if len(part) < 6 or part_area < min_area or part_area > 0.97 * area:
+                    continue
+                marks.extend(self._blob(frame, part, part_area))
+        return marks
+
+    def _blob(self, frame: _Frame, contour: Contour, area: float) -> list[Mark]:
+        cfg = self.config
+        s = frame.sx
+        bx, by, bw, bh = cv2.boundingRect(contour)
+        box = (bx, by, bw, bh)
+        sh, sw = frame.mask.shape
+        border = bx <= 0 or by <= 0 or bx + bw >= sw or by + bh >= sh
+        _, (rw, rh), _ = cv2.minAreaRect(contour)
+        # Cheap clutter rejection: slivers and stripes (a mark's visible part, even cut by the
+        # image edge down to ``min_arc`` of its outline, is at least a quarter as wide as long),
+        # rectangles (they fill their minimum bounding rectangle).
+        if (min(rw, rh) + 1.0) * s < 1.2 * cfg.min_radius or min(rw, rh) < 0.3 * max(rw, rh):
+            return []
+        if area > cfg.max_extent * rw * rh and min(rw, rh) * s >= 24.0:
+            return []
+        hull = cv2.convexHull(contour)
+        hull_area = cv2.contourArea(hull)
+        convex = area >= cfg.min_solidity * hull_area
+        if convex and not border:
+            coarse = self._whole_fit(contour, tolerance_px=1.0)
+            if coarse is not None and \
+                    _longest_edge(cv2.approxPolyDP(hull, 0.75, True)) > _flat_stretch(coarse):
+                coarse = None  # a straight cut: an occluder's edge
+            if coarse is not None:
+                mark = self._measure_whole(frame, self._to_full(frame, coarse), None, 1.0)
+                if mark is not None:
+                    return [mark]
+        # Not a clean whole mark: cut by the image edge, partly hidden, touching, or clutter.
+        # Polygons (few vertices) and shapes far from their fitted ellipse's area stay out of
+        # the slow path.
+        step = max(1, len(contour) // 64)  # the least-squares fit needs no more points
+        e = _from_rotated_rect(cv2.fitEllipseDirect(
+            np.ascontiguousarray(contour[::step]).astype(np.float32)))
+        ell_area = math.pi * e.a * e.b
+        if not ell_area > 0 or abs(area - ell_area) > 0.2 * ell_area:
+            return []
+        r_est = math.sqrt(hull_area / math.pi)
+        if r_est * s >= 16.0 and len(cv2.approxPolyDP(hull, 0.1 * r_est, True)) < 6:
+            return []
+        # Small triangles: blur rounds them past the polygon test, but they fill little of
+        # their bounding rectangle (≈ 0.5-0.6; a disc 0.79, a disc cut by a chord >= 0.67).
+        if r_est * s < 20.0 and area < cfg.min_small_extent * rw * rh:
+            return []
+        colours = self._colours(frame, contour, box)
+        split = colours.split
+        if not split and (colours.colour is None or not self._meets_floors(frame, colours)):
+            return []
+        if not border:
+            # Inside the image: a partly hidden mark (convex) or touching marks (concave).
+            # Either is at least as round as two touching discs, and a partly hidden one must
+            # be large enough to tell from a bar's rounded end.
+            if e.minor < 0.9 * cfg.min_axis_ratio * e.major:
+                return []
+            if convex and r_est * s < cfg.min_partial_radius:
+                return []
+        if not self._has_arc(frame, contour, r_est):
+            return []
+        single: list[Mark] = []
+        if colours.colour is not None:
+            # One mark's reading: every palette-coloured pixel of the blob is the mark (its
+            # shading may straddle a palette boundary). A convex blob inside the image already
+            # failed as a whole mark.
+            single = self._window_marks(frame, colours.region, box, [colours.colour],
+                                        purity={colours.colour: colours.purity},
+                                        try_whole=border or not convex, merged=True)
+        if not split:
+            return single
+        # Touching marks of different colours: each colour on its own, the others hiding it.
+        # It stands when it finds more marks, or as many and at least two (one mark whose
+        # shading straddles two palette colours is one mark).
+        # (Each colour's part is that colour by construction: purity 1.)
+        present = colours.present
+        marks = self._window_marks(frame, colours.region, box, present,
+                                   purity=dict.fromkeys(present, 1.0), try_whole=True)
+        if len(marks) > len(single) or len(marks) == len(single) >= 2:
+            return marks
+        return single
+
+
+def _window_sum(hist: npt.NDArray[np.float64], half: int) -> npt.NDArray[np.float64]:
+    """Sum of a circular histogram over ±``half`` bins around each bin."""
+    padded = np.concatenate([hist[-half - 1:], hist, hist[:half]])
+    cs = np.cumsum(padded)
+    out: npt.NDArray[np.float64] = cs[2 * half + 1:] - cs[:len(hist)]
+    return out
+
+
+def _hue_peaks(hist: npt.NDArray[np.float64], min_count: float, gap: float) -> list[float]:
+    """Hues (OpenCV units) of the separate clusters of a circular hue histogram: local maxima of
+    the histogram smoothed over ±2 hue, at least ``gap`` apart, each holding ``min_count``
+    pixels within ``gap / 2`` of it, largest first."""
+    n = len(hist)
+    smooth = _window_sum(hist, 2)
+    near = _window_sum(hist, max(1, int(gap // 2)))
+    left = np.concatenate([smooth[-1:], smooth[:-1]])
+    right = np.concatenate([smooth[1:], smooth[:1]])
+    is_peak = (smooth > 0) & (smooth >= left) & (smooth >= right) & (near >= min_count)
+    candidates = np.flatnonzero(is_peak)
+    if len(candidates) < 2:
+        return []
+    peaks: list[float] = []
+    for i in candidates[np.argsort(-smooth[candidates], kind="stable")].tolist():
+        if all(abs((i - p + n / 2) % n - n / 2) >= gap for p in peaks):
+            peaks.append(float(i))
+    return peaks
+
+
+def detect_marks(image: U8Array, palette: Palette = DEFAULT_PALETTE) -> list[Mark]:
+    """Convenience: the marks in one BGR image with a fresh :class:`Detector`."""
+    return Detector(palette).detect(image)

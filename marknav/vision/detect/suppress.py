@@ -1,0 +1,39 @@
+"""Suppression: one mark per object when several readings of a blob overlap."""
+
+from __future__ import annotations
+
+import math
+
+from marknav.vision.detect.model import Mark
+
+
+def _centre_in(a: Mark, b: Mark) -> bool:
+    """Whether ``a``'s centre lies inside ``b``'s ellipse."""
+    t = math.radians(b.angle_deg)
+    dx, dy = a.x - b.x, a.y - b.y
+    u = (dx * math.cos(t) + dy * math.sin(t)) / max(b.axes[0], 1e-9)
+    v = (-dx * math.sin(t) + dy * math.cos(t)) / max(b.axes[1], 1e-9)
+    return u * u + v * v < 1.0
+
+
+def _suppress_duplicates(marks: list[Mark]) -> list[Mark]:
+    """Drop a mark whose centre lies inside a better-scoring mark of similar size, and a mark
+    that holds the centres of two smaller marks (an outline fitted across touching marks).
+    Of two marks one of whose centres lies inside the other, only the better-scoring one
+    stands: a visible mark's centre cannot be behind another mark's face, so one of the two is
+    an outline fitted across a mark and something touching it (clutter of the same colour)."""
+    def inside(small: Mark, big: Mark) -> bool:
+        return small.radius < 0.8 * big.radius and \
+            math.hypot(small.x - big.x, small.y - big.y) < big.radius
+    marks = [m for m in marks if sum(inside(o, m) for o in marks if o is not m) < 2]
+    kept: list[Mark] = []
+    for mark in sorted(marks, key=lambda m: -m.score):
+        duplicate = any(
+            (math.hypot(mark.x - k.x, mark.y - k.y) < 0.5 * min(mark.radius, k.radius)
+             and 0.6 <= mark.radius / k.radius <= 1.67)
+            or _centre_in(mark, k) or _centre_in(k, mark)
+            for k in kept
+        )
+        if not duplicate:
+            kept.append(mark)
+    return kept
