@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from typing import Any
 
 import pytest
 
@@ -17,7 +18,7 @@ from marknav.clock import ManualClock
 from marknav.drivers import oi
 from marknav.drivers.driver import CreateDriver, default_stream_ids
 from marknav.drivers.oi import Model, OIMode, Opcode
-from marknav.drivers.transport import open_port
+from marknav.drivers.transport import SerialPort, open_port
 from marknav.errors import InputError
 from marknav.planning.kinematics import Pose
 from marknav.sim import protocol_createsim
@@ -263,21 +264,75 @@ def test_reader_thread_against_a_real_time_simulator() -> None:
         assert driver.parser.bad_frames == 0 and driver.frames_received > 40
 
 
-def test_bump_is_handled_on_the_reader_thread_before_the_reading_is_published() -> None:
-    sim = SimulatedCreate(clock=ManualClock())
+class ObservedPort:
+    """A real port (the simulated Create's) that records, for every write, what ``observe()``
+    returned at that moment: the driver's state as the bytes go out, on whichever thread wrote
+    them. It makes the order of "wheels zeroed" and "reading published" visible without timing."""
+
+    def __init__(self, port: SerialPort) -> None:
+        self._port = port
+        self.observe: Callable[[], object] = lambda: None
+        self.writes: list[tuple[bytes, object]] = []
+
+    @property
+    def in_waiting(self) -> int:
+        return self._port.in_waiting
+
+    def read(self, size: int = 1) -> bytes:
+        return self._port.read(size)
+
+    def write(self, data: bytes, /) -> int | None:
+        self.writes.append((bytes(data), self.observe()))
+        return self._port.write(data)
+
+    def reset_input_buffer(self) -> None:
+        self._port.reset_input_buffer()
+
+    def close(self) -> None:
+        self._port.close()
+
+
+@pytest.mark.parametrize("reader_thread", [False, True])
+def test_bump_is_handled_before_the_reading_is_published(reader_thread: bool) -> None:
+    """The bump frame's zero Drive Direct is written before that frame's reading is published:
+    whoever sees the bumped reading (a behaviour, the controller thread) knows the wheels are
+    already stopped. Checked at the write itself, so it holds on the reader thread too."""
+    clock = ManualClock()
+    sim = SimulatedCreate(clock=clock)
     url = protocol_createsim.register(sim)
-    driver = CreateDriver(url, clock=ManualClock(), settle_s=0.0, first_frame_timeout_s=None)
-    try:
-        driver.connect()
-        sim.step(TICK)
-        driver.wait_for_sensors(1.0)
-        assert driver.drive(left=100, right=100)
-        sim.set_bump(left=False, right=True)
+    ports: list[ObservedPort] = []
+
+    def observed_port(url: str, **kwargs: Any) -> ObservedPort:
+        ports.append(ObservedPort(open_port(url, **kwargs)))
+        return ports[-1]
+
+    driver = CreateDriver(url, clock=clock, settle_s=0.0, first_frame_timeout_s=None,
+                          open_port=observed_port, reader_thread=reader_thread)
+
+    def step() -> None:
         before = driver.frames_received
         sim.step(TICK)
-        reading = driver.wait_for_sensors(1.0, after_frame=before)
-        assert reading.state.bump_right
-        # on_sensors ran (and wrote the zero) before this reading was published
+        if reader_thread:
+            driver.wait_for_sensors(1.0, after_frame=before)
+        else:
+            assert driver.process_input() == 1
+
+    try:
+        driver.connect()
+        (port,) = ports
+        port.observe = lambda: (driver.frames_received, driver.safety_state)
+        step()
+        assert driver.drive(left=100, right=100)
+        step()
+        sim.set_bump(left=False, right=True)
+        before = driver.frames_received
+        del port.writes[:]
+        step()
+        reading = driver.latest
+        assert reading is not None and reading.state.bump_right and reading.frame == before + 1
+        # exactly one write, the zero, made while the bump frame was not yet published (and by a
+        # safety layer that had already left "driving")
+        assert port.writes == [(oi.drive_direct(left=0, right=0), (before, "bumped"))]
         assert sim.wheel_speeds.left == 0.0 and driver.safety_state == "bumped"
     finally:
         driver.close()
