@@ -163,6 +163,8 @@ def test_stream_is_multipart_jpeg_of_the_still(still_server: MjpegServer) -> Non
         assert reader.headers["content-type"] == f"multipart/x-mixed-replace; boundary={BOUNDARY}"
         assert "no-cache" in reader.headers["cache-control"]
         original = smarties()
+        first = still_server.streamer.latest()
+        assert first is not None
         t0 = time.monotonic()
         for _ in range(4):
             jpeg = reader.part()
@@ -171,8 +173,12 @@ def test_stream_is_multipart_jpeg_of_the_still(still_server: MjpegServer) -> Non
             image = decode(jpeg)
             assert image.shape == original.shape
             assert float(np.mean(cv2.absdiff(image, original))) < 3.0  # quality 80
-        # a still is re-sent at --fps (30): 4 parts take about 3 periods
-        assert 0.05 < time.monotonic() - t0 < 1.0
+        # a still is re-sent at --fps (30): each part is a new publication of it, so 4 parts
+        # span at least 3 of them, and they are paced, not burst (a lower bound only: a loaded
+        # machine makes the stream slower, never faster; the speed itself is not asserted)
+        last = still_server.streamer.latest()
+        assert last is not None and last.seq >= first.seq + 3
+        assert time.monotonic() - t0 > 2.5 / 30
     finally:
         reader.close()
 
