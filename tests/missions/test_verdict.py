@@ -1,0 +1,44 @@
+"""Today's verdict of one evaluation run (``SeedResult.success``): the tree's SUCCESS counts only
+if the ground truth agrees — every waypoint really passed, each on its colour's side.
+
+Engineer i11 is rewriting the verdict (a ``skipped`` count, the true path's crossings); the new
+verdict's tests are theirs. This file pins the current rule only.
+"""
+
+from __future__ import annotations
+
+from marknav.missions.evaluate import SeedResult, WaypointTruth
+
+
+def run(*waypoints: WaypointTruth, outcome: str = "success") -> SeedResult:
+    return SeedResult(seed=4, outcome=outcome, reason="every waypoint passed", sim_time_s=20.0,
+                      wall_time_s=1.0, collisions=0, waypoints=waypoints)
+
+
+RED_OK = WaypointTruth("red", "left", "passed", "left", 310.0)
+
+
+def test_a_pass_the_ground_truth_confirms_is_a_success() -> None:
+    result = run(RED_OK, WaypointTruth("green", "right", "passed", "right", 290.0))
+    assert result.success
+    assert (result.wrong_side, result.unverified) == (0, 0)
+
+
+def test_a_declared_pass_the_ground_truth_never_saw_is_not_a_success() -> None:
+    result = run(RED_OK, WaypointTruth("green", "right", "passed", None, 900.0))
+    assert not result.success
+    assert (result.wrong_side, result.unverified) == (0, 1)
+    assert result.failure_reason == ("the tree completed the route, but the ground truth says: "
+                                     "waypoint 2 (green) declared passed but never passed")
+
+
+def test_a_pass_on_the_wrong_side_is_not_a_success() -> None:
+    result = run(WaypointTruth("red", "left", "passed", "right", 280.0), RED_OK)
+    assert not result.success
+    assert (result.wrong_side, result.unverified) == (1, 0)
+    assert result.failure_reason.endswith("waypoint 1 (red) passed on its right, not its left")
+
+
+def test_a_failed_tree_is_not_a_success_whatever_the_truth() -> None:
+    result = run(RED_OK, outcome="failed")
+    assert not result.success and result.failure_reason == "every waypoint passed"
