@@ -42,3 +42,32 @@ def test_a_pass_on_the_wrong_side_is_not_a_success() -> None:
 def test_a_failed_tree_is_not_a_success_whatever_the_truth() -> None:
     result = run(RED_OK, outcome="failed")
     assert not result.success and result.failure_reason == "every waypoint passed"
+
+
+def test_one_run_from_its_report_and_as_json() -> None:
+    from marknav.missions.report import RunReport, WaypointResult
+
+    report = RunReport(mission="tiny", outcome="success", reason="every waypoint passed",
+                       sim_time_s=21.23456, wall_time_s=1.98765, ticks=425, collisions=1,
+                       overruns=2, waypoints=[
+                           WaypointResult("red", "left", "passed", "left", 312.34),
+                           WaypointResult("green", "right", "passed", "left", 287.66),
+                           WaypointResult("blue", "left", "pending")])
+    result = SeedResult.from_report(7, report)
+    assert (result.seed, result.outcome, result.reason) == (7, "success",
+                                                           "every waypoint passed")
+    assert (result.ticks, result.overruns, result.collisions) == (425, 2, 1)
+    assert result.waypoints[1] == WaypointTruth("green", "right", "passed", "left", 287.66)
+    assert result.clearances() == [312.34, 287.66]  # the pending one has none
+    assert result.to_dict() == {
+        "seed": 7, "outcome": "success", "reason": "every waypoint passed",
+        "sim_time_s": 21.235, "wall_time_s": 1.988, "collisions": 1, "wrong_side": 1,
+        "waypoints_passed": 2, "min_clearance_mm": 287.7,
+        "waypoints": [
+            {"colour": "red", "side": "left", "outcome": "passed", "passed_on": "left",
+             "min_clearance_mm": 312.34},
+            {"colour": "green", "side": "right", "outcome": "passed", "passed_on": "left",
+             "min_clearance_mm": 287.66},
+            {"colour": "blue", "side": "left", "outcome": "pending", "passed_on": None,
+             "min_clearance_mm": None}]}
+    assert run().to_dict()["min_clearance_mm"] is None  # no waypoint passed
