@@ -139,8 +139,10 @@ def run(name: str, module: Module, children: int) -> int:
 
 
 def _functions(source: str) -> dict[str, str]:
-    tree = ast.parse(source)
-    return {n.name: ast.get_source_segment(source, n) or "" for n in ast.walk(tree)
+    """Source of every mutant (and ``__mutmut_orig``) function, by name."""
+    lines = source.splitlines()
+    return {n.name: "\n".join(lines[n.lineno - 1:n.end_lineno])
+            for n in ast.walk(ast.parse(source))
             if isinstance(n, ast.FunctionDef | ast.AsyncFunctionDef) and "__mutmut_" in n.name}
 
 

@@ -71,3 +71,52 @@ def test_one_run_from_its_report_and_as_json() -> None:
             {"colour": "blue", "side": "left", "outcome": "pending", "passed_on": None,
              "min_clearance_mm": None}]}
     assert run().to_dict()["min_clearance_mm"] is None  # no waypoint passed
+
+
+def test_summary_counts_at_the_clearance_target_and_unverified_passes() -> None:
+    from marknav.missions.evaluate import CLEARANCE_TOLERANCE_MM, summarise
+
+    target = 300.0 - CLEARANCE_TOLERANCE_MM
+    at_target = run(WaypointTruth("red", "left", "passed", "left", target))
+    below = replace_seed(run(WaypointTruth("red", "left", "passed", "left", target - 0.1)), 5)
+    ghost = replace_seed(run(WaypointTruth("red", "left", "passed", None, None)), 6)
+    ev = summarise([ghost, below, at_target], mission="tiny", mission_path="tiny.yaml",
+                   clearance_mm=300.0)
+    assert [s.seed for s in ev.results] == [4, 5, 6]
+    assert (ev.runs, ev.successes, ev.unverified_passes) == (3, 2, 1)
+    assert ev.success_rate == 2 / 3
+    assert (ev.min_success, ev.jobs, ev.wall_total_s) == (0.95, 1, 0.0)  # the defaults
+    assert ev.clearance_below_target == 1  # at the target is not below it
+    assert ev.incidents == [
+        (below, [f"waypoint 1 (red) clearance {target - 0.1:.0f} mm < {target:.0f} mm"]),
+        (ghost, ["waypoint 1 (red) declared passed but never passed"])]
+    empty = summarise([], mission="tiny", mission_path="tiny.yaml", clearance_mm=300.0)
+    assert (empty.runs, empty.success_rate, empty.success_ci95) == (0, 0.0, (0.0, 1.0))
+
+
+def replace_seed(result: SeedResult, seed: int) -> SeedResult:
+    from dataclasses import replace
+
+    return replace(result, seed=seed)
+
+
+def test_percentile_and_wilson_bounds() -> None:
+    import pytest
+
+    from marknav.missions.evaluate import percentile, wilson_interval
+
+    assert percentile([3, 1, 2], 0.0) == 1.0 and percentile([3, 1, 2], 100.0) == 3.0
+    assert percentile([], 50.0) is None
+    for q in (-0.5, 100.5):
+        with pytest.raises(ValueError, match=rf"^q must be in 0\.\.100, got {q}$"):
+            percentile([1.0], q)
+    lo, hi = wilson_interval(0, 10)
+    assert lo == 0.0 and 0.25 < hi < 0.35
+    lo, hi = wilson_interval(10, 10)
+    assert 0.65 < lo < 0.75 and hi == 1.0
+    lo, hi = wilson_interval(1, 1)
+    assert hi == 1.0 and 0.2 < lo < 0.25
+    for successes, n in ((1, 0), (-1, 5), (6, 5), (0, -1)):
+        with pytest.raises(ValueError,
+                           match=rf"^need 0 ≤ successes ≤ n, got {successes} of {n}$"):
+            wilson_interval(successes, n)
