@@ -13,6 +13,7 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
+from serial import SerialException
 
 from marknav.clock import ManualClock
 from marknav.drivers import oi
@@ -376,3 +377,132 @@ def test_open_port_errors_name_the_port(url: str, message: str) -> None:
         open_port(url, baudrate=115200)
     text = str(exc.value)
     assert text.startswith(f"{url}: cannot open serial port") and message in text
+
+
+# --- edges found by mutation testing (docs/mutation.md) ------------------------------------------
+
+class FaultyPort(ObservedPort):
+    """An observed port whose next read raises ``fail_read`` (a pulled cable, a port closed under
+    the driver)."""
+
+    fail_read: BaseException | None = None
+
+    def read(self, size: int = 1) -> bytes:
+        if self.fail_read is not None:
+            raise self.fail_read
+        return super().read(size)
+
+
+def faulty_rig() -> tuple[Rig, FaultyPort]:
+    r = Rig()
+    ports: list[FaultyPort] = []
+
+    def faulty(url: str, **kwargs: Any) -> FaultyPort:
+        ports.append(FaultyPort(open_port(url, **kwargs)))
+        return ports[-1]
+
+    r.driver = CreateDriver(r.url, clock=r.clock, settle_s=0.0, first_frame_timeout_s=None,
+                            reader_thread=False, open_port=faulty)
+    r.driver.connect()
+    r.tick()
+    return r, ports[0]
+
+
+def test_each_reading_carries_its_clock_time_and_frame_number(rig: Rig) -> None:
+    first = rig.driver.latest
+    assert first is not None
+    for k in range(1, 4):
+        rig.tick()
+        reading = rig.driver.latest
+        assert reading is not None
+        assert reading.frame == first.frame + k == rig.driver.frames_received
+        assert reading.t == rig.clock.now()
+    # nothing waiting: nothing read, nothing handled, nothing fed to the parser
+    skipped = rig.driver.parser.skipped_bytes
+    assert rig.driver.process_input() == 0 and rig.driver.process_input() == 0
+    assert rig.driver.parser.skipped_bytes == skipped and rig.driver.parser.bad_frames == 0
+
+
+def test_leds_and_modes_reach_the_robot_as_sent(rig: Rig) -> None:
+    rig.driver.leds(bits=0b1010, power_color=200, power_intensity=128)
+    rig.tick()
+    assert (rig.sim.commands[-1].opcode, rig.sim.commands[-1].data) == (
+        Opcode.LEDS, bytes([0b1010, 200, 128]))
+    rig.driver.set_mode(OIMode.FULL)
+    rig.tick()
+    assert rig.driver.mode is OIMode.FULL and rig.sim.mode is OIMode.FULL
+    rig.driver.set_mode(OIMode.PASSIVE)  # sent, but not the mode the driver drives in
+    rig.tick()
+    assert rig.driver.mode is OIMode.FULL and rig.sim.mode is OIMode.PASSIVE
+
+
+def test_odometry_changes_keep_the_latest_reading(rig: Rig) -> None:
+    rig.run(0.3, left=200, right=200)
+    before = rig.driver.latest
+    assert before is not None
+    rig.driver.reset_odometry(Pose(10.0, 20.0, 0.5))
+    after = rig.driver.latest
+    assert after is not None and after.pose == Pose(10.0, 20.0, 0.5)
+    assert (after.state, after.t, after.frame) == (before.state, before.t, before.frame)
+    rig.driver.scale_right_wheel(0.97)
+    anchored = rig.driver.latest
+    assert anchored is not None and anchored.frame == before.frame
+    assert anchored.sensitivity == (0.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize(("error", "reason"), [
+    (SerialException("device reports readiness to read but returned no data"),
+     "serial read failed: device reports readiness to read but returned no data"),
+    (TypeError("'NoneType' object is not callable"),  # a port closed under the driver
+     "serial read failed: TypeError: 'NoneType' object is not callable"),
+])
+def test_a_failed_read_is_a_lost_link_with_its_reason(error: BaseException, reason: str) -> None:
+    r, port = faulty_rig()
+    try:
+        assert r.driver.drive(left=100, right=100)
+        port.fail_read = error
+        r.sim.step(TICK)
+        assert r.driver.process_input() == 0
+        assert r.driver.link_error == reason
+        assert r.driver.safety_state == "fault"
+        assert r.driver.fault_reason == f"serial link lost: {reason}"
+        # after that the port is left alone: no more reads, nothing handled
+        port.fail_read = AssertionError("read after the link was lost")
+        assert r.driver.process_input() == 0
+        with pytest.raises(TimeoutError, match=f"^{reason}$"):
+            r.driver.wait_for_sensors(0.5, after_frame=r.driver.frames_received)
+    finally:
+        r.close()
+
+
+def test_a_failed_non_wheel_write_faults_the_safety_layer_with_its_reason() -> None:
+    r, port = faulty_rig()
+    try:
+        def broken(data: bytes, /) -> int | None:
+            raise SerialException("write failed: [Errno 5] Input/output error")
+
+        port.write = broken  # type: ignore[method-assign]
+        r.driver.leds(bits=1)  # reported, not raised
+        assert r.driver.safety_state == "fault"
+        assert r.driver.fault_reason == ("serial link lost: "
+                                         "write failed: [Errno 5] Input/output error")
+    finally:
+        r.close()
+
+
+def test_commands_before_connect_and_sensor_timeouts_say_what_is_wrong(rig: Rig) -> None:
+    unconnected = CreateDriver(rig.url, settle_s=0.0, first_frame_timeout_s=None,
+                               reader_thread=False)
+    with pytest.raises(RuntimeError, match=r"^CreateDriver is not connected$"):
+        unconnected.leds(bits=1)
+    with pytest.raises(TimeoutError, match=r"^no sensor frame within 0 s$"):
+        rig.driver.wait_for_sensors(0.0, after_frame=rig.driver.frames_received)
+    sim = SimulatedCreate(clock=ManualClock())
+    url = protocol_createsim.register(sim)
+    try:
+        owned = r"^the reader thread owns the port \(reader_thread=True\)$"
+        with (CreateDriver(url, settle_s=0.0, first_frame_timeout_s=None) as threaded,
+              pytest.raises(RuntimeError, match=owned)):
+            threaded.process_input()
+    finally:
+        protocol_createsim.unregister(url.split("//")[1])
