@@ -90,6 +90,10 @@ def test_summary_counts_at_the_clearance_target_and_unverified_passes() -> None:
     assert ev.incidents == [
         (below, [f"waypoint 1 (red) clearance {target - 0.1:.0f} mm < {target:.0f} mm"]),
         (ghost, ["waypoint 1 (red) declared passed but never passed"])]
+    ev = summarise([at_target], mission="tiny", mission_path="tiny.yaml", clearance_mm=300.0,
+                   jobs=2, wall_total_s=3.5)
+    assert (ev.mission, ev.mission_path, ev.jobs, ev.wall_total_s) == ("tiny", "tiny.yaml", 2,
+                                                                       3.5)
     empty = summarise([], mission="tiny", mission_path="tiny.yaml", clearance_mm=300.0)
     assert (empty.runs, empty.success_rate, empty.success_ci95) == (0, 0.0, (0.0, 1.0))
 
@@ -116,6 +120,8 @@ def test_percentile_and_wilson_bounds() -> None:
     assert 0.65 < lo < 0.75 and hi == 1.0
     lo, hi = wilson_interval(1, 1)
     assert hi == 1.0 and 0.2 < lo < 0.25
+    # where floating point lands beside the exact end (5.6e-17 above 0 at 0 of 3): exactly 0
+    assert wilson_interval(0, 3)[0] == 0.0
     for successes, n in ((1, 0), (-1, 5), (6, 5), (0, -1)):
         with pytest.raises(ValueError,
                            match=rf"^need 0 ≤ successes ≤ n, got {successes} of {n}$"):
