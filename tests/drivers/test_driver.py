@@ -506,3 +506,19 @@ def test_commands_before_connect_and_sensor_timeouts_say_what_is_wrong(rig: Rig)
             threaded.process_input()
     finally:
         protocol_createsim.unregister(url.split("//")[1])
+
+
+def test_constructor_defaults_and_what_it_passes_on() -> None:
+    d = CreateDriver("/dev/null")
+    assert (d.first_frame_timeout_s, d.settle_s, d.reader_thread, d.mode) == (2.0, 0.05, True,
+                                                                           OIMode.SAFE)
+    assert d.frames_received == 0 and d.latest is None
+    start = Pose(100.0, -50.0, 0.25)
+    d = CreateDriver("/dev/null", model="create1", wheel_base_mm=250.0, start_pose=start)
+    assert d.odometry.wheel_base_mm == 250.0
+    assert d.pose() == start  # before any frame: the start pose
+    with pytest.raises(InputError) as exc:
+        CreateDriver("/dev/null", model="roomba")
+    assert exc.value.field == "model"
+    with pytest.raises(ValueError, match=r"^mode must be OIMode\.SAFE or OIMode\.FULL, got "):
+        CreateDriver("/dev/null", mode=OIMode.PASSIVE)
