@@ -128,14 +128,34 @@ def prepare(name: str, module: Module) -> Path:
 
 
 def run(name: str, module: Module, children: int) -> int:
+    """Check the mutants not checked yet, then re-check the survivors of earlier runs (mutmut
+    keeps a verdict until asked again by name, and the tests may have changed since)."""
     work = prepare(name, module)
     env = {**os.environ, "PY_TREES_DISABLE_COLORS": "1"}
     mutmut = shutil.which("mutmut") or str(Path(sys.executable).with_name("mutmut"))
-    cmd = [mutmut, "run", "--max-children", str(children), *module.only]
-    print(f"[{name}] {' '.join(cmd)}  (in {work})", flush=True)
+    base = [mutmut, "run", "--max-children", str(children)]
+    meta = work / "mutants" / (module.path + ".meta")
+    earlier = _survivor_keys(meta, module) if meta.exists() else []
+    rc = 0
     with open(work / "mutmut.log", "w", encoding="utf-8") as log:
-        done = subprocess.run(cmd, cwd=work, env=env, stdout=log, stderr=subprocess.STDOUT)
-    return done.returncode
+        passes = [list(module.only)]
+        if earlier and not module.only:  # with name patterns the first pass re-checks them all
+            passes.append(earlier)
+        for names in passes:
+            cmd = [*base, *names]
+            print(f"[{name}] {' '.join(cmd[:6])}{' …' if len(cmd) > 6 else ''}  (in {work})",
+                  flush=True)
+            rc = subprocess.run(cmd, cwd=work, env=env, stdout=log,
+                                stderr=subprocess.STDOUT).returncode or rc
+    return rc
+
+
+def _survivor_keys(meta: Path, module: Module) -> list[str]:
+    from fnmatch import fnmatchcase
+
+    codes: dict[str, int | None] = json.loads(meta.read_text("utf-8"))["exit_code_by_key"]
+    return [k for k, c in codes.items() if c == 0
+            and (not module.only or any(fnmatchcase(k, p) for p in module.only))]
 
 
 def _functions(source: str) -> dict[str, str]:
