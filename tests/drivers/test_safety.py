@@ -762,3 +762,35 @@ def test_after_a_reset_the_next_fault_starts_afresh() -> None:
     assert details(layer)[-1] == ("reset", "ready", "cleared: wheel drop right")
     layer.on_link_lost("")
     assert layer.fault_reason == "serial link lost"
+
+
+def test_bump_back_off_and_timeout_events_record_why() -> None:
+    layer, _, clock = connected(sensor_timeout_s=0.25)
+    layer.on_sensors(flags(bump_right=True))
+    assert layer.backoff(left=-80, right=-80) is True
+    layer.on_sensors(CLEAR)
+    assert details(layer)[-2:] == [("bump", "bumped", "bump right"),  # back-off not recorded
+                                   ("bump_cleared", "ready", "no bump in frame")]
+    # a frame exactly sensor_timeout_s old is not late; a moment later it is
+    clock.set(10.0)
+    layer.on_sensors(CLEAR)
+    clock.set(10.25)
+    layer.poll()
+    assert layer.state is S.READY
+    clock.set(10.3)
+    layer.poll()
+    assert details(layer)[-1] == ("sensor_timeout", "fault",
+                                  "no sensor frame for 0.300 s (limit 0.25 s)")
+
+
+def test_a_wheel_write_that_raises_anything_faults_with_its_name() -> None:
+    layer, sink, _ = driving()
+    sink.fail_with = RuntimeError("adapter gone")
+    assert layer.command(left=150, right=150) is False
+    assert layer.fault_reason == "wheel write failed: RuntimeError: adapter gone"
+
+
+def test_the_smallest_wheel_limit_is_accepted() -> None:
+    layer, sink, _ = connected(max_wheel_mm_s=1)
+    assert layer.command(left=300, right=150) is True
+    assert sink.calls == [(1, 0)]  # both scaled by one factor: 1 and 0.5, rounded to even
