@@ -772,12 +772,12 @@ def test_bump_back_off_and_timeout_events_record_why() -> None:
     assert details(layer)[-2:] == [("bump", "bumped", "bump right"),  # back-off not recorded
                                    ("bump_cleared", "ready", "no bump in frame")]
     # a frame exactly sensor_timeout_s old is not late; a moment later it is
-    clock.set(10.0)
+    clock.set(0.125)
     layer.on_sensors(CLEAR)
-    clock.set(10.25)
+    clock.set(0.375)
     layer.poll()
     assert layer.state is S.READY
-    clock.set(10.3)
+    clock.set(0.425)
     layer.poll()
     assert details(layer)[-1] == ("sensor_timeout", "fault",
                                   "no sensor frame for 0.300 s (limit 0.25 s)")
