@@ -386,8 +386,10 @@ class FaultyPort(ObservedPort):
     the driver)."""
 
     fail_read: BaseException | None = None
+    reads = 0
 
     def read(self, size: int = 1) -> bytes:
+        self.reads += 1
         if self.fail_read is not None:
             raise self.fail_read
         return super().read(size)
@@ -417,6 +419,10 @@ def test_each_reading_carries_its_clock_time_and_frame_number(rig: Rig) -> None:
         assert reading is not None
         assert reading.frame == first.frame + k == rig.driver.frames_received
         assert reading.t == rig.clock.now()
+    # two frames waiting: both handled by one call
+    rig.sim.step(TICK)
+    rig.sim.step(TICK)
+    assert rig.driver.process_input() == 2
     # nothing waiting: nothing read, nothing handled, nothing fed to the parser
     skipped = rig.driver.parser.skipped_bytes
     assert rig.driver.process_input() == 0 and rig.driver.process_input() == 0
@@ -424,6 +430,9 @@ def test_each_reading_carries_its_clock_time_and_frame_number(rig: Rig) -> None:
 
 
 def test_leds_and_modes_reach_the_robot_as_sent(rig: Rig) -> None:
+    rig.driver.leds()
+    rig.tick()
+    assert (rig.sim.commands[-1].opcode, rig.sim.commands[-1].data) == (Opcode.LEDS, bytes(3))
     rig.driver.leds(bits=0b1010, power_color=200, power_intensity=128)
     rig.tick()
     assert (rig.sim.commands[-1].opcode, rig.sim.commands[-1].data) == (
@@ -467,8 +476,9 @@ def test_a_failed_read_is_a_lost_link_with_its_reason(error: BaseException, reas
         assert r.driver.safety_state == "fault"
         assert r.driver.fault_reason == f"serial link lost: {reason}"
         # after that the port is left alone: no more reads, nothing handled
-        port.fail_read = AssertionError("read after the link was lost")
+        reads = port.reads
         assert r.driver.process_input() == 0
+        assert port.reads == reads
         with pytest.raises(TimeoutError, match=f"^{reason}$"):
             r.driver.wait_for_sensors(0.5, after_frame=r.driver.frames_received)
     finally:
