@@ -7,6 +7,7 @@ Written against the mutants mutmut left alive in behaviours/bypass.py (docs/muta
 from __future__ import annotations
 
 import math
+import re
 
 import py_trees
 import pytest
@@ -14,8 +15,10 @@ from py_trees.common import Status
 
 from marknav.behaviours import keys
 from marknav.behaviours.base import SetupError
-from marknav.behaviours.bypass import BezierBypass, lateral_of
+from marknav.behaviours.bypass import BezierBypass, behind_of, lateral_of
+from marknav.behaviours.target import SelectTarget
 from marknav.planning.kinematics import Pose, to_robot_frame
+from marknav.testing import FakeRobot
 
 BB = py_trees.blackboard.Blackboard
 
@@ -188,3 +191,44 @@ def test_lateral_of_is_the_offset_to_the_left():
     north = Pose(0.0, 0.0, math.pi / 2)
     assert lateral_of(north, (-100.0, 500.0), north.theta) == pytest.approx(100.0)
     assert lateral_of(north, (100.0, 500.0), north.theta) == pytest.approx(-100.0)
+
+
+@pytest.mark.parametrize("course", [0.0, 0.5, 2.2, -2.6])
+def test_behind_and_lateral_are_the_robot_frame_on_any_course(course):
+    pose = Pose(120.0, -80.0, course)
+    for mark in [(500.0, 300.0), (-250.0, 40.0), (120.0, 900.0), (-700.0, -600.0)]:
+        forward, left = to_robot_frame(pose, mark)
+        assert behind_of(pose, mark, course) == pytest.approx(-forward, abs=1e-9)
+        assert lateral_of(pose, mark, course) == pytest.approx(left, abs=1e-9)
+
+
+@pytest.mark.parametrize(("colour", "sign"), [("red", -1.0), ("green", 1.0)])
+def test_a_bypass_on_a_slanted_course_passes_on_the_required_side(rig, colour, sign):
+    # the robot starts facing 35° (not along an axis), the mark 900 mm straight ahead
+    heading = math.radians(35.0)
+    rig.robot = FakeRobot(clock=rig.clock, pose=Pose(200.0, -100.0, heading))
+    mark = (200.0 + 900.0 * math.cos(heading), -100.0 + 900.0 * math.sin(heading))
+    rig.perception.place(colour, x_mm=mark[0], y_mm=mark[1])
+    node = BezierBypass(margin_mm=0.0)
+    root = py_trees.composites.Sequence("Root", memory=False, children=[
+        rig.perception, py_trees.composites.Sequence("Pass", memory=True, children=[
+            SelectTarget(colour=colour, waypoint=0), node])])
+    tree = rig.tree(root)
+    tree.tick()
+    assert re.fullmatch(rf"passing {colour} #1 on its (left|right): \d\.\d\d m to go",
+                        node.feedback_message), node.feedback_message
+    to_go = float(node.feedback_message.split(": ")[1].split(" m")[0])
+    log = rig.run(tree, max_ticks=300)
+    assert log.reached
+    (plan,) = rig.bb(keys.PLANS)
+    assert plan.plan.course == pytest.approx(heading, abs=0.05)
+    assert 1.0 < to_go < 2.0  # the curve plus the run-out, ~1.4 m
+    end = rig.robot.pose()
+    # beside the mark at the clearance on the required side (the mark to the robot's right
+    # when passing on its left), and past it by the run-out, along the slanted course
+    assert lateral_of(end, mark, plan.plan.course) == pytest.approx(sign * 300.0, abs=15.0)
+    assert behind_of(end, mark, plan.plan.course) == pytest.approx(165.0 + 100.0 + 60.0,
+                                                                  abs=15.0)
+    (passed,) = rig.bb(keys.PASSED)
+    assert (passed.colour, passed.mark_x, passed.mark_y) == (
+        colour, pytest.approx(mark[0]), pytest.approx(mark[1]))
