@@ -532,3 +532,21 @@ def test_constructor_defaults_and_what_it_passes_on() -> None:
     assert exc.value.field == "model"
     with pytest.raises(ValueError, match=r"^mode must be OIMode\.SAFE or OIMode\.FULL, got "):
         CreateDriver("/dev/null", mode=OIMode.PASSIVE)
+
+
+def test_the_command_watchdog_setting_and_start_pose_reach_safety_and_odometry(rig: Rig) -> None:
+    start = Pose(-40.0, 25.0, 1.0)
+    d = CreateDriver(rig.url, clock=rig.clock, settle_s=0.0, first_frame_timeout_s=None,
+                     reader_thread=False, command_timeout_s=0.1,
+                     start_pose=start)
+    rig.driver.close()  # the simulated Create takes one driver at a time
+    rig.driver = d
+    d.connect()
+    rig.tick()
+    assert d.drive(left=150, right=150)
+    rig.tick(5)  # 75 ms without a new command: still driving
+    assert d.safety_state == "driving"
+    rig.tick(3)  # 120 ms: the 0.1 s command watchdog stopped it (the default is 0.3 s)
+    assert d.safety_state == "ready" and rig.sim.wheel_speeds.left == 0.0
+    d.reset_odometry()  # back to the start pose, not the origin
+    assert d.pose() == start
