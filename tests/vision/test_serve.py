@@ -313,12 +313,12 @@ def test_a_stalled_camera_ends_streams_cleanly_and_recovers(
         reader = MjpegReader(server.port)
         try:
             parts = 0
-            t0 = time.monotonic()
             while reader.part() is not None and parts < 100:
                 parts += 1
-            assert reader.ended  # the closing boundary, not a hang or a reset
+            # the closing boundary, not a reset; a hang would end in the reader's 3 s socket
+            # timeout (an error), so no wall-clock bound is asserted here
+            assert reader.ended
             assert 1 <= parts <= 5
-            assert time.monotonic() - t0 < 2.0
         finally:
             reader.close()
         assert wait_until(lambda: streamer.stalls == 1, 1.0)
