@@ -44,10 +44,12 @@ MODULES: dict[str, Module] = {
         "tests/behaviours/test_search.py", "tests/behaviours/test_search_edges.py",
         "tests/behaviours/test_route.py")),
     "target": Module("marknav/behaviours/target.py", (
-        "tests/behaviours/test_target.py", "tests/behaviours/test_association_gate.py",
-        "tests/behaviours/test_perception.py", "tests/behaviours/test_route.py")),
+        "tests/behaviours/test_target.py", "tests/behaviours/test_target_edges.py",
+        "tests/behaviours/test_association_gate.py", "tests/behaviours/test_perception.py",
+        "tests/behaviours/test_route.py")),
     "bypass": Module("marknav/behaviours/bypass.py", (
-        "tests/behaviours/test_bypass.py", "tests/behaviours/test_route.py")),
+        "tests/behaviours/test_bypass.py", "tests/behaviours/test_bypass_edges.py",
+        "tests/behaviours/test_route.py")),
     "oi": Module("marknav/drivers/oi.py", (
         "tests/drivers/test_oi.py", "tests/drivers/test_stream.py",
         "tests/drivers/test_driver.py")),
