@@ -10,6 +10,8 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
+import pytest
+
 from marknav.behaviours import keys
 from marknav.behaviours.target import (
     MEMORY_MIN_SEEN,
@@ -158,3 +160,56 @@ def test_the_remembered_target_is_the_nearest_in_both_coordinates():
                              []).world == (1200, 1000)
     off_in_x = [seen("green", -300 + 600, 1500)]  # same y, 600 mm off: not the one in view
     assert remembered_target(known, "green", (), here, off_in_x).world == (-300, 1500)
+
+
+# -- the condition nodes' names, messages and settings -------------------------------------------
+
+
+def test_describe_says_how_far_and_which_way():
+    from marknav.behaviours.target import describe
+
+    assert describe(None) == "not in view"
+    assert describe(seen("red", -300, 1500)) == "1.53 m, 11° left"
+    assert describe(seen("red", 300, 1500)) == "1.53 m, 11° right"
+    assert describe(seen("red", 0, 2000)) == "2.00 m, 0° right"  # dead ahead counts as right
+
+
+def test_condition_nodes_names_and_messages(rig):
+    import py_trees
+    from py_trees.common import Status
+
+    from marknav.behaviours.base import SetupError
+    from marknav.behaviours.target import SelectTarget, TargetLocked, TargetSeen, WaypointPassed
+
+    assert [n.name for n in (SelectTarget(colour="red"), TargetSeen(), TargetLocked(),
+                             WaypointPassed(waypoint_id="w"))] == [
+        "SelectTarget", "Seen?", "Bypassing?", "Passed?"]
+    with pytest.raises(ValueError, match=r"^side must be 'left' or 'right', got 'up'$"):
+        SelectTarget(colour="red", side="up")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=r"^lost_after_s must be a positive number"):
+        TargetSeen(lost_after_s=0.0)
+    seen_node = TargetSeen(lost_after_s=0.2)  # wins over the mission's 0.5 s
+    locked = TargetLocked(waypoint_id="waypoint-0-red")
+    passed = WaypointPassed(waypoint_id="waypoint-0-red")
+    for node in (seen_node, locked, passed):
+        rig.tree(node)
+    assert seen_node.lost_after_s == 0.2
+    for node in (seen_node, locked, passed):
+        node.tick_once()
+    assert [(n.status, n.feedback_message) for n in (seen_node, locked, passed)] == [
+        (Status.FAILURE, "no target selected"), (Status.FAILURE, "no bypass under way"),
+        (Status.FAILURE, "not yet")]
+    py_trees.blackboard.Blackboard.set(keys.TARGET, target(locked=True, world_x=0.0,
+                                                           world_y=900.0))
+    locked.tick_once()
+    assert (locked.status, locked.feedback_message) == (Status.SUCCESS,
+                                                        "red #1: bypass under way")
+    other = TargetLocked(waypoint_id="waypoint-1-red")  # another waypoint's lock is not ours
+    rig.tree(other)
+    other.tick_once()
+    assert other.status == Status.FAILURE
+    with pytest.raises(SetupError, match=r"not set up \(no lost_after_s\)"):
+        TargetSeen().update()
+    with pytest.raises(SetupError, match=r"^SelectTarget 'SelectTarget': colour 'purple' is "
+                                         r"not in the mission's marks\.colours$"):
+        rig.tree(SelectTarget(colour="purple"))
