@@ -174,11 +174,12 @@ def test_stream_is_multipart_jpeg_of_the_still(still_server: MjpegServer) -> Non
             assert image.shape == original.shape
             assert float(np.mean(cv2.absdiff(image, original))) < 3.0  # quality 80
         # a still is re-sent at --fps (30): each part is a new publication of it, so 4 parts
-        # span at least 3 of them, and they are paced, not burst (a lower bound only: a loaded
-        # machine makes the stream slower, never faster; the speed itself is not asserted)
+        # span at least 3 of them, and they are paced, not burst: parts 2-4 are two periods
+        # apart at least (a lower bound only: a loaded machine makes the stream slower, never
+        # faster; the speed itself is not asserted)
         last = still_server.streamer.latest()
         assert last is not None and last.seq >= first.seq + 3
-        assert time.monotonic() - t0 > 2.5 / 30
+        assert time.monotonic() - t0 > 1.5 / 30
     finally:
         reader.close()
 
