@@ -12,7 +12,9 @@ versions) once at the top level, then a section per benchmark:
 - ``loop`` — a simulated mission with rendering and detection: cycle times, overruns, speed-up
   (:func:`marknav.missions.bench.bench_loop`);
 - ``safety`` — bump-to-stop latency, safety layer alone and through the real driver
-  (:func:`marknav.missions.bench.bench_safety`).
+  (:func:`marknav.missions.bench.bench_safety`);
+- ``render`` — ms per simulator frame against the 2 ms target
+  (:func:`marknav.sim.render_bench.bench_render`).
 
 ``--quick`` runs each with small sizes (a smoke test: the figures are noisier). ``--profile``
 runs them under :mod:`cProfile` and prints the top costs (own time and cumulative time per
@@ -77,6 +79,12 @@ def _loop(quick: bool) -> dict[str, Any]:
     return bench_loop(max_time_s=5.0) if quick else bench_loop(max_time_s=60.0)
 
 
+def _render(quick: bool) -> dict[str, Any]:
+    from marknav.sim.render_bench import bench_render
+
+    return bench_render(frames=20, batches=1) if quick else bench_render()
+
+
 def _safety(quick: bool) -> dict[str, Any]:
     from marknav.missions.bench import bench_safety
 
@@ -91,6 +99,8 @@ BENCHMARKS: dict[str, Benchmark] = {b.name: b for b in (
     Benchmark("loop", "60 s simulated slalom at 20 Hz with rendering and detection", _loop),
     Benchmark("safety", "bump-to-stop latency: safety layer, and end to end via the driver",
               _safety),
+    Benchmark("render", "ms per 640×480 simulator frame, noise and blur (target 2 ms)",
+              _render),
 )}
 
 

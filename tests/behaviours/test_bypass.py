@@ -12,8 +12,8 @@ from py_trees.common import Status
 from marknav.behaviours import keys
 from marknav.behaviours.bypass import EXIT_MARGIN_MM, BezierBypass
 from marknav.behaviours.target import SelectTarget
-from marknav.planning.kinematics import to_robot_frame
-from marknav.testing import RobotMark
+from marknav.planning.kinematics import Pose, to_robot_frame
+from marknav.testing import FakeRobot, RobotMark
 
 #: Robot radius + mark radius + margin (the default mission's values).
 RUN_OUT_MM = 165.0 + 100.0 + EXIT_MARGIN_MM
@@ -135,3 +135,80 @@ def test_plans_with_the_drift_margin_widened_after_each_bump(rig, recoveries, pl
     (plan,) = rig.bb(keys.PLANS)
     assert plan.plan.min_clearance_mm == pytest.approx(planned, abs=1e-6)
     assert node.planned_clearance_mm() == pytest.approx(planned)
+
+
+# -- the two ways a bypass fails after it started ---------------------------------------------
+
+
+class CarriedRobot(FakeRobot):
+    """A fake robot that can be picked up and put down elsewhere (a pose jump: carried by a
+    person, or odometry re-anchored to a new fix); odometry follows the jump."""
+
+    def carry_to(self, pose: Pose) -> None:
+        self.sync()
+        self._odometry = self._true = pose
+        self.trajectory.append((self.clock.now(), pose))
+
+
+def test_a_mark_that_ends_up_on_the_wrong_side_fails_the_bypass(rig):
+    rig.robot = CarriedRobot(clock=rig.clock)
+    rig.perception.place("red", x_mm=50, y_mm=800)  # pass on its left: the robot goes west
+    tree, node = bypass_tree(rig)
+    statuses = [tick(rig, tree) for _ in range(20)]  # one second into the bypass
+    assert statuses == [Status.RUNNING] * 20
+    assert rig.robot.pose().x < 0.0  # swerving west, as planned
+    # Carried to the east of the mark, already past it by the run-out: the mark is behind the
+    # robot (the bypass would be over) but on the robot's left, the side it must not be on.
+    rig.robot.carry_to(Pose(250.0, 800.0 + RUN_OUT_MM, math.pi / 2))
+    assert tick(rig, tree) == Status.FAILURE
+    assert node.status == Status.FAILURE
+    assert node.feedback_message == "red #1 ended up on the wrong side (+200 mm to the left)"
+    assert rig.bb(keys.PASSED, ()) == ()  # not recorded as passed
+    assert rig.robot.wheels == (0, 0)
+
+
+def test_the_same_jump_to_the_right_side_counts_as_passed(rig):
+    # the control case of the test above: carried west of the mark instead, the bypass succeeds
+    rig.robot = CarriedRobot(clock=rig.clock)
+    rig.perception.place("red", x_mm=50, y_mm=800)
+    tree, node = bypass_tree(rig)
+    for _ in range(20):
+        tick(rig, tree)
+    rig.robot.carry_to(Pose(-150.0, 800.0 + RUN_OUT_MM, math.pi / 2))
+    assert tick(rig, tree) == Status.SUCCESS
+    assert [(p.colour, p.side) for p in rig.bb(keys.PASSED)] == [("red", "left")]
+    assert node.feedback_message == "passed red #1 on its left (200 mm beside it)"
+
+
+def test_a_bypass_that_cannot_keep_up_fails_at_its_deadline(rig):
+    # Wheels that only turn at 25 mm/s (a stalling drive, a robot pushing against something
+    # soft): the plan wants 200 mm/s, so the bypass takes eight times as long as planned. It must
+    # give up at 3 × length / speed + 5 s, not drive on for ever.
+    rig.robot = FakeRobot(clock=rig.clock, max_wheel_mm_s=25)
+    rig.perception.place("red", x_mm=50, y_mm=800)
+    tree, node = bypass_tree(rig)
+    dt = 0.1
+    assert tick(rig, tree, dt) == Status.RUNNING
+    (record,) = rig.bb(keys.PLANS)
+    speed = 0.8 * rig.mission.navigation.approach_speed_mm_s
+    budget = 3.0 * record.plan.length_mm / speed + 5.0
+    assert 15.0 < budget < 30.0
+    statuses = [Status.RUNNING]
+    while statuses[-1] == Status.RUNNING and len(statuses) < 1000:
+        statuses.append(tick(rig, tree, dt))
+    failed_at = rig.clock.now() - record.t
+    # RUNNING tick by tick up to the deadline, FAILURE on the first tick after it
+    assert statuses[-1] == Status.FAILURE
+    assert set(statuses[:-1]) == {Status.RUNNING}
+    assert budget < failed_at <= budget + dt + 1e-9
+    assert node.feedback_message == f"bypass of red #1 did not finish in {failed_at:.1f} s"
+    assert rig.bb(keys.PASSED, ()) == ()
+    assert rig.robot.wheels == (0, 0)
+    # it was moving all along, just too slowly: not half way along the plan
+    assert 0.0 < rig.robot.pose().y < 0.5 * (800.0 + RUN_OUT_MM)
+
+
+def tick(rig, tree, dt=0.05):
+    rig.clock.advance(dt)
+    tree.tick()
+    return tree.root.status

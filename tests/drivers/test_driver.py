@@ -9,15 +9,17 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from typing import Any
 
 import pytest
+from serial import SerialException
 
 from marknav.clock import ManualClock
 from marknav.drivers import oi
 from marknav.drivers.driver import CreateDriver, default_stream_ids
 from marknav.drivers.oi import Model, OIMode, Opcode
-from marknav.drivers.transport import open_port
+from marknav.drivers.transport import SerialPort, open_port
 from marknav.errors import InputError
 from marknav.planning.kinematics import Pose
 from marknav.sim import protocol_createsim
@@ -263,21 +265,75 @@ def test_reader_thread_against_a_real_time_simulator() -> None:
         assert driver.parser.bad_frames == 0 and driver.frames_received > 40
 
 
-def test_bump_is_handled_on_the_reader_thread_before_the_reading_is_published() -> None:
-    sim = SimulatedCreate(clock=ManualClock())
+class ObservedPort:
+    """A real port (the simulated Create's) that records, for every write, what ``observe()``
+    returned at that moment: the driver's state as the bytes go out, on whichever thread wrote
+    them. It makes the order of "wheels zeroed" and "reading published" visible without timing."""
+
+    def __init__(self, port: SerialPort) -> None:
+        self._port = port
+        self.observe: Callable[[], object] = lambda: None
+        self.writes: list[tuple[bytes, object]] = []
+
+    @property
+    def in_waiting(self) -> int:
+        return self._port.in_waiting
+
+    def read(self, size: int = 1) -> bytes:
+        return self._port.read(size)
+
+    def write(self, data: bytes, /) -> int | None:
+        self.writes.append((bytes(data), self.observe()))
+        return self._port.write(data)
+
+    def reset_input_buffer(self) -> None:
+        self._port.reset_input_buffer()
+
+    def close(self) -> None:
+        self._port.close()
+
+
+@pytest.mark.parametrize("reader_thread", [False, True])
+def test_bump_is_handled_before_the_reading_is_published(reader_thread: bool) -> None:
+    """The bump frame's zero Drive Direct is written before that frame's reading is published:
+    whoever sees the bumped reading (a behaviour, the controller thread) knows the wheels are
+    already stopped. Checked at the write itself, so it holds on the reader thread too."""
+    clock = ManualClock()
+    sim = SimulatedCreate(clock=clock)
     url = protocol_createsim.register(sim)
-    driver = CreateDriver(url, clock=ManualClock(), settle_s=0.0, first_frame_timeout_s=None)
-    try:
-        driver.connect()
-        sim.step(TICK)
-        driver.wait_for_sensors(1.0)
-        assert driver.drive(left=100, right=100)
-        sim.set_bump(left=False, right=True)
+    ports: list[ObservedPort] = []
+
+    def observed_port(url: str, **kwargs: Any) -> ObservedPort:
+        ports.append(ObservedPort(open_port(url, **kwargs)))
+        return ports[-1]
+
+    driver = CreateDriver(url, clock=clock, settle_s=0.0, first_frame_timeout_s=None,
+                          open_port=observed_port, reader_thread=reader_thread)
+
+    def step() -> None:
         before = driver.frames_received
         sim.step(TICK)
-        reading = driver.wait_for_sensors(1.0, after_frame=before)
-        assert reading.state.bump_right
-        # on_sensors ran (and wrote the zero) before this reading was published
+        if reader_thread:
+            driver.wait_for_sensors(1.0, after_frame=before)
+        else:
+            assert driver.process_input() == 1
+
+    try:
+        driver.connect()
+        (port,) = ports
+        port.observe = lambda: (driver.frames_received, driver.safety_state)
+        step()
+        assert driver.drive(left=100, right=100)
+        step()
+        sim.set_bump(left=False, right=True)
+        before = driver.frames_received
+        del port.writes[:]
+        step()
+        reading = driver.latest
+        assert reading is not None and reading.state.bump_right and reading.frame == before + 1
+        # exactly one write, the zero, made while the bump frame was not yet published (and by a
+        # safety layer that had already left "driving")
+        assert port.writes == [(oi.drive_direct(left=0, right=0), (before, "bumped"))]
         assert sim.wheel_speeds.left == 0.0 and driver.safety_state == "bumped"
     finally:
         driver.close()
@@ -321,3 +377,176 @@ def test_open_port_errors_name_the_port(url: str, message: str) -> None:
         open_port(url, baudrate=115200)
     text = str(exc.value)
     assert text.startswith(f"{url}: cannot open serial port") and message in text
+
+
+# --- edges found by mutation testing (docs/mutation.md) ------------------------------------------
+
+class FaultyPort(ObservedPort):
+    """An observed port whose next read raises ``fail_read`` (a pulled cable, a port closed under
+    the driver)."""
+
+    fail_read: BaseException | None = None
+    reads = 0
+
+    def read(self, size: int = 1) -> bytes:
+        self.reads += 1
+        if self.fail_read is not None:
+            raise self.fail_read
+        return super().read(size)
+
+
+def faulty_rig() -> tuple[Rig, FaultyPort]:
+    r = Rig()
+    ports: list[FaultyPort] = []
+
+    def faulty(url: str, **kwargs: Any) -> FaultyPort:
+        ports.append(FaultyPort(open_port(url, **kwargs)))
+        return ports[-1]
+
+    r.driver = CreateDriver(r.url, clock=r.clock, settle_s=0.0, first_frame_timeout_s=None,
+                            reader_thread=False, open_port=faulty)
+    r.driver.connect()
+    r.tick()
+    return r, ports[0]
+
+
+def test_each_reading_carries_its_clock_time_and_frame_number(rig: Rig) -> None:
+    first = rig.driver.latest
+    assert first is not None
+    for k in range(1, 4):
+        rig.tick()
+        reading = rig.driver.latest
+        assert reading is not None
+        assert reading.frame == first.frame + k == rig.driver.frames_received
+        assert reading.t == rig.clock.now()
+    # two frames waiting: both handled by one call
+    rig.sim.step(TICK)
+    rig.sim.step(TICK)
+    assert rig.driver.process_input() == 2
+    # nothing waiting: nothing read, nothing handled, nothing fed to the parser
+    skipped = rig.driver.parser.skipped_bytes
+    assert rig.driver.process_input() == 0 and rig.driver.process_input() == 0
+    assert rig.driver.parser.skipped_bytes == skipped and rig.driver.parser.bad_frames == 0
+
+
+def test_leds_and_modes_reach_the_robot_as_sent(rig: Rig) -> None:
+    rig.driver.leds()
+    rig.tick()
+    assert (rig.sim.commands[-1].opcode, rig.sim.commands[-1].data) == (Opcode.LEDS, bytes(3))
+    rig.driver.leds(bits=0b1010, power_color=200, power_intensity=128)
+    rig.tick()
+    assert (rig.sim.commands[-1].opcode, rig.sim.commands[-1].data) == (
+        Opcode.LEDS, bytes([0b1010, 200, 128]))
+    rig.driver.set_mode(OIMode.FULL)
+    rig.tick()
+    assert rig.driver.mode is OIMode.FULL and rig.sim.mode is OIMode.FULL
+    rig.driver.set_mode(OIMode.PASSIVE)  # sent, but not the mode the driver drives in
+    rig.tick()
+    assert rig.driver.mode is OIMode.FULL and rig.sim.mode is OIMode.PASSIVE
+
+
+def test_odometry_changes_keep_the_latest_reading(rig: Rig) -> None:
+    rig.run(0.3, left=200, right=200)
+    before = rig.driver.latest
+    assert before is not None
+    rig.driver.reset_odometry(Pose(10.0, 20.0, 0.5))
+    after = rig.driver.latest
+    assert after is not None and after.pose == Pose(10.0, 20.0, 0.5)
+    assert (after.state, after.t, after.frame) == (before.state, before.t, before.frame)
+    rig.driver.scale_right_wheel(0.97)
+    anchored = rig.driver.latest
+    assert anchored is not None and anchored.frame == before.frame
+    assert anchored.sensitivity == (0.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize(("error", "reason"), [
+    (SerialException("device reports readiness to read but returned no data"),
+     "serial read failed: device reports readiness to read but returned no data"),
+    (TypeError("'NoneType' object is not callable"),  # a port closed under the driver
+     "serial read failed: TypeError: 'NoneType' object is not callable"),
+])
+def test_a_failed_read_is_a_lost_link_with_its_reason(error: BaseException, reason: str) -> None:
+    r, port = faulty_rig()
+    try:
+        assert r.driver.drive(left=100, right=100)
+        port.fail_read = error
+        r.sim.step(TICK)
+        assert r.driver.process_input() == 0
+        assert r.driver.link_error == reason
+        assert r.driver.safety_state == "fault"
+        assert r.driver.fault_reason == f"serial link lost: {reason}"
+        # after that the port is left alone: no more reads, nothing handled
+        reads = port.reads
+        assert r.driver.process_input() == 0
+        assert port.reads == reads
+        with pytest.raises(TimeoutError, match=f"^{reason}$"):
+            r.driver.wait_for_sensors(0.5, after_frame=r.driver.frames_received)
+    finally:
+        r.close()
+
+
+def test_a_failed_non_wheel_write_faults_the_safety_layer_with_its_reason() -> None:
+    r, port = faulty_rig()
+    try:
+        def broken(data: bytes, /) -> int | None:
+            raise SerialException("write failed: [Errno 5] Input/output error")
+
+        port.write = broken  # type: ignore[method-assign]
+        r.driver.leds(bits=1)  # reported, not raised
+        assert r.driver.safety_state == "fault"
+        assert r.driver.fault_reason == ("serial link lost: "
+                                         "write failed: [Errno 5] Input/output error")
+    finally:
+        r.close()
+
+
+def test_commands_before_connect_and_sensor_timeouts_say_what_is_wrong(rig: Rig) -> None:
+    unconnected = CreateDriver(rig.url, settle_s=0.0, first_frame_timeout_s=None,
+                               reader_thread=False)
+    with pytest.raises(RuntimeError, match=r"^CreateDriver is not connected$"):
+        unconnected.leds(bits=1)
+    with pytest.raises(TimeoutError, match=r"^no sensor frame within 0 s$"):
+        rig.driver.wait_for_sensors(0.0, after_frame=rig.driver.frames_received)
+    sim = SimulatedCreate(clock=ManualClock())
+    url = protocol_createsim.register(sim)
+    try:
+        owned = r"^the reader thread owns the port \(reader_thread=True\)$"
+        with (CreateDriver(url, settle_s=0.0, first_frame_timeout_s=None) as threaded,
+              pytest.raises(RuntimeError, match=owned)):
+            threaded.process_input()
+    finally:
+        protocol_createsim.unregister(url.split("//")[1])
+
+
+def test_constructor_defaults_and_what_it_passes_on() -> None:
+    d = CreateDriver("/dev/null")
+    assert (d.first_frame_timeout_s, d.settle_s, d.reader_thread, d.mode) == (2.0, 0.05, True,
+                                                                           OIMode.SAFE)
+    assert d.frames_received == 0 and d.latest is None
+    start = Pose(100.0, -50.0, 0.25)
+    d = CreateDriver("/dev/null", model="create1", wheel_base_mm=250.0, start_pose=start)
+    assert d.odometry.wheel_base_mm == 250.0
+    assert d.pose() == start  # before any frame: the start pose
+    with pytest.raises(InputError) as exc:
+        CreateDriver("/dev/null", model="roomba")
+    assert exc.value.field == "model"
+    with pytest.raises(ValueError, match=r"^mode must be OIMode\.SAFE or OIMode\.FULL, got "):
+        CreateDriver("/dev/null", mode=OIMode.PASSIVE)
+
+
+def test_the_command_watchdog_setting_and_start_pose_reach_safety_and_odometry(rig: Rig) -> None:
+    start = Pose(-40.0, 25.0, 1.0)
+    d = CreateDriver(rig.url, clock=rig.clock, settle_s=0.0, first_frame_timeout_s=None,
+                     reader_thread=False, command_timeout_s=0.1,
+                     start_pose=start)
+    rig.driver.close()  # the simulated Create takes one driver at a time
+    rig.driver = d
+    d.connect()
+    rig.tick()
+    assert d.drive(left=150, right=150)
+    rig.tick(5)  # 75 ms without a new command: still driving
+    assert d.safety_state == "driving"
+    rig.tick(3)  # 120 ms: the 0.1 s command watchdog stopped it (the default is 0.3 s)
+    assert d.safety_state == "ready" and rig.sim.wheel_speeds.left == 0.0
+    d.reset_odometry()  # back to the start pose, not the origin
+    assert d.pose() == start

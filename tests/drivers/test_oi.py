@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import pytest
 
@@ -244,3 +245,61 @@ def test_drive_radius_read_back_signed_is_straight() -> None:
     assert list(oi.drive(velocity=100, radius=-32768)) == [137, 0, 100, 128, 0]
     assert oi.drive(velocity=100, radius=oi.RADIUS_STRAIGHT_SIGNED) == oi.drive_straight(100)
     assert list(oi.drive(velocity=100, radius=-32767)) == [137, 0, 100, 248, 48]  # clamped -2000
+
+
+# --- limits and messages (found by mutation testing, docs/mutation.md) ---------------------------
+
+
+def test_list_lengths_at_their_limits() -> None:
+    from marknav.drivers.oi import query_list, stream, stream_frame
+
+    m = Model.CREATE2
+    assert query_list([7], model=m) == bytes([149, 1, 7])
+    assert len(query_list([7] * 255, model=m)) == 2 + 255
+    assert len(stream([7] * 255, model=m)) == 2 + 255
+    assert len(stream_frame(bytes(255))) == 2 + 255 + 1
+    with pytest.raises(ValueError, match=r"got 0$"):
+        query_list([], model=m)
+    with pytest.raises(ValueError, match=r"got 256$"):
+        query_list([7] * 256, model=m)
+    with pytest.raises(ValueError, match=r"^a stream has at most 255 packet ids, got 256$"):
+        stream([7] * 256, model=m)
+    with pytest.raises(ValueError, match=r"^a stream payload has at most 255 bytes, got 256$"):
+        stream_frame(bytes(256))
+
+
+def test_songs_at_their_limits_and_what_is_wrong_is_named() -> None:
+    from marknav.drivers.oi import play, song
+
+    sixteen = [(60, 8)] * 16
+    assert song(0, sixteen, model=Model.CREATE2)[:3] == bytes([140, 0, 16])
+    with pytest.raises(ValueError, match=r"^a song has 1-16 notes, got 17$"):
+        song(0, [*sixteen, (60, 8)], model=Model.CREATE2)
+    with pytest.raises(ValueError, match=r"^note 1 must be a \(note, duration\) pair, got "):
+        song(0, [(60, 8), (60,)], model=Model.CREATE2)  # type: ignore[list-item]
+    with pytest.raises(ValueError, match=r"^note 0 number must be an integer in 0\.\.255"):
+        song(0, [(300, 8)], model=Model.CREATE2)
+    with pytest.raises(ValueError, match=r"^song number must be an integer in 0\.\.4, got 5$"):
+        play(5, model=Model.CREATE2)
+
+
+@pytest.mark.parametrize(("make", "message"), [
+    (lambda: oi.drive_direct(left=math.nan, right=0), "^left must be finite"),
+    (lambda: oi.drive_direct(left=0, right=math.inf), "^right must be finite"),
+    (lambda: oi.drive(velocity=math.nan, radius=100), "^velocity must be finite"),
+    (lambda: oi.drive(velocity=100, radius=math.nan), "^radius must be finite"),
+    (lambda: oi.drive(velocity=100, radius=0),
+     r"^radius 0 is undefined: use RADIUS_STRAIGHT or turn_in_place\(\)$"),
+    (lambda: oi.turn_in_place(math.inf, clockwise=True), "^speed must be finite"),
+    (lambda: oi.leds(bits=256), "^LED bits must be an integer in 0..255, got 256$"),
+    (lambda: oi.leds(power_color=-1), "^power LED colour must be an integer in 0..255"),
+    (lambda: oi.leds(bits=True), "^LED bits must be an integer"),  # a bool is not a byte
+])
+def test_bad_command_arguments_are_named(make: Callable[[], bytes], message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        make()
+
+
+def test_led_defaults_and_a_paused_stream() -> None:
+    assert oi.leds() == bytes([139, 0, 0, 0])
+    assert oi.pause_stream() == bytes([150, 0])

@@ -6,6 +6,7 @@ Everything runs on 127.0.0.1 in real time; every wait is bounded.
 
 from __future__ import annotations
 
+import logging
 import os
 import re
 import signal
@@ -165,18 +166,29 @@ def test_a_half_sent_command_is_completed_before_the_stop(rig: Rig) -> None:
     assert [c.data for c in drives[-2:]] == [bytes([1, 44, 0, 0]), bytes(4)]
 
 
-def test_a_silent_client_gets_the_wheels_stopped_but_stays_connected() -> None:
+def test_a_silent_client_gets_the_wheels_stopped_but_stays_connected(
+        caplog: pytest.LogCaptureFixture) -> None:
     rig = Rig(idle_stop_s=0.3)
+    caplog.set_level(logging.INFO, logger="marknav.drivers.cmd_serve_robot")
     try:
         sim = rig.sim
         client = serial.serial_for_url(rig.bridge.url, baudrate=115200, timeout=0.05)
         try:
             client.write(oi.start() + oi.safe() + oi.drive_direct(left=100, right=100))
             assert wait_until(lambda: sim.wheel_speeds == WheelSpeeds(left=100.0, right=100.0), 1.0)
-            t0 = time.monotonic()
-            assert wait_until(lambda: sim.wheel_speeds == WheelSpeeds(left=0.0, right=0.0), 1.5)
-            assert 0.25 <= time.monotonic() - t0 <= 1.0
+            # a client that keeps talking (every 50 ms, well inside the 0.3 s) is never stopped
+            for _ in range(12):
+                client.write(oi.drive_direct(left=100, right=100))
+                time.sleep(0.05)
+            assert rig.bridge.stops_sent == 0
+            assert sim.wheel_speeds == WheelSpeeds(left=100.0, right=100.0)
+            # silent, it is: once, with the reason logged (no wall-clock bound asserted)
+            assert wait_until(lambda: sim.wheel_speeds == WheelSpeeds(left=0.0, right=0.0), 5.0)
             assert rig.bridge.stops_sent == 1
+            assert [r.getMessage() for r in caplog.records
+                    if r.getMessage().startswith("robot stopped")] == [
+                f"robot stopped: client {rig.bridge.client} silent for 0.3 s"]
+            assert [c.data for c in sim.commands if c.opcode == Opcode.DRIVE_DIRECT][-1] == bytes(4)
             time.sleep(0.5)  # one stop per silence, not one every 0.3 s
             assert rig.bridge.stops_sent == 1
             client.write(oi.drive_direct(left=-50, right=50))  # still connected
@@ -301,5 +313,24 @@ def test_serve_robot_command(tmp_path: object) -> None:
 
 def test_open_port_default_on_rfc2217(rig: Rig) -> None:
     # open_port drops the write timeout for rfc2217:// (pyserial's client cannot do one).
-    port: SerialPort = open_port(rig.bridge.url, baudrate=115200)
-    port.close()
+    # A write timeout asked for anyway is dropped too, instead of pyserial's NotImplementedError.
+    port: SerialPort = open_port(rig.bridge.url, baudrate=115200, write_timeout=0.5)
+    try:
+        assert isinstance(port, serial.rfc2217.Serial)
+        assert (port.write_timeout, port.timeout, port.baudrate) == (None, 0.015, 115200)
+        assert (port.xonxoff, port.rtscts, port.dsrdtr) == (False, False, False)
+        # and it is a working link: Start, then ask for the OI mode (packet 35) through the bridge
+        port.write(oi.start() + oi.sensors(35, model=Model.CREATE2))
+        reply = b""
+        deadline = time.monotonic() + 2.0
+        while not reply and time.monotonic() < deadline:
+            reply = port.read(1)
+        assert reply == bytes([OIMode.PASSIVE])
+    finally:
+        port.close()
+    # other ports keep the write timeout (a stuck link raises instead of hanging)
+    other = open_port("createsim://?model=create2", baudrate=115200)
+    try:
+        assert other.write_timeout == 0.5  # type: ignore[attr-defined]
+    finally:
+        other.close()

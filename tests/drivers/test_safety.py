@@ -680,3 +680,117 @@ def test_any_object_with_the_fields_is_accepted() -> None:
     layer.on_sensors(frame)  # type: ignore[arg-type]
     assert layer.state is S.BUMPED
     assert sink.calls == [(0, 0)]
+
+
+# ---------------------------------------------------------------- found by mutation testing
+
+
+def details(layer: SafetyLayer) -> list[tuple[str, str, str]]:
+    return [(e.event, e.state, e.detail) for e in layer.events]
+
+
+def test_every_stop_records_why() -> None:
+    layer, _, _ = driving()
+    assert layer.command(left=0, right=0) is True
+    assert layer.command(left=100, right=100) is True
+    layer.stop()
+    assert layer.command(left=100, right=100) is True
+    with pytest.raises(ValueError):
+        layer.command(left=math.nan, right=100)
+    assert details(layer)[-5:] == [
+        ("stop", "ready", "zero command"), ("drive", "driving", ""),
+        ("stop", "ready", "stop()"), ("drive", "driving", ""),
+        ("stop", "ready", "non-finite command")]
+
+
+def test_a_failed_wheel_write_refuses_the_command_and_names_the_error() -> None:
+    layer, sink, _ = driving()
+    sink.fail_with = serial.SerialException("write timeout")
+    assert layer.command(left=120, right=120) is False
+    assert layer.state is S.FAULT
+    assert layer.fault_reason == "wheel write failed: SerialException: write timeout"
+
+
+def test_backoff_is_only_backward_even_by_a_fraction() -> None:
+    layer, sink, _ = connected()
+    layer.on_sensors(flags(bump_left=True))
+    sink.clear()
+    assert layer.backoff(left=0.6, right=-100) is False  # rounds to 1 mm/s forward
+    assert layer.backoff(left=0.0, right=-100) is True
+    assert sink.calls == [(0, -100)]
+
+
+def test_reset_refusals_say_what_blocks_them(caplog: pytest.LogCaptureFixture) -> None:
+    caplog.set_level(logging.INFO, logger="marknav.drivers.safety")
+    layer, _, clock = make(sensor_timeout_s=0.25)
+    layer.connect()
+    layer.estop("test")
+    assert layer.reset() is False  # connected, but no frame yet
+    layer.on_sensors(flags(oi_mode=1))
+    assert layer.reset() is False
+    layer.on_sensors(flags(oi_mode=7))
+    assert layer.reset() is False
+    refusals = [r.getMessage() for r in caplog.records if "reset refused" in r.getMessage()]
+    assert refusals == [
+        "safety: reset refused: no sensor frame yet",
+        "safety: reset refused: OI mode is passive (1), not safe or full",
+        "safety: reset refused: OI mode is unknown (7), not safe or full"]
+    # a frame exactly sensor_timeout_s old is still fresh
+    clock.set(0.5)
+    layer.on_sensors(CLEAR)
+    clock.set(0.75)
+    assert layer.reset() is True and layer.state is S.READY
+    assert details(layer)[-1] == ("reset", "ready", "cleared: e-stop: test")
+
+
+def test_after_a_reset_the_next_fault_starts_afresh() -> None:
+    layer, _, clock = driving()
+    layer.on_sensors(flags(cliff_left=True))
+    layer.on_sensors(CLEAR)
+    assert layer.reset() is True
+    # the old command does not count for the watchdog; the old reasons are gone
+    for _ in range(10):
+        clock.advance(0.1)
+        layer.on_sensors(CLEAR)
+        layer.poll()
+    assert layer.state is S.READY
+    assert layer.command(left=100, right=100) is True
+    layer.on_sensors(flags(wheel_drop_right=True))
+    layer.on_sensors(CLEAR)
+    assert layer.fault_reason == "wheel drop right"
+    assert layer.reset() is True
+    assert details(layer)[-1] == ("reset", "ready", "cleared: wheel drop right")
+    layer.on_link_lost("")
+    assert layer.fault_reason == "serial link lost"
+
+
+def test_bump_back_off_and_timeout_events_record_why() -> None:
+    layer, _, clock = connected(sensor_timeout_s=0.25)
+    layer.on_sensors(flags(bump_right=True))
+    assert layer.backoff(left=-80, right=-80) is True
+    layer.on_sensors(CLEAR)
+    assert details(layer)[-2:] == [("bump", "bumped", "bump right"),  # back-off not recorded
+                                   ("bump_cleared", "ready", "no bump in frame")]
+    # a frame exactly sensor_timeout_s old is not late; a moment later it is
+    clock.set(0.125)
+    layer.on_sensors(CLEAR)
+    clock.set(0.375)
+    layer.poll()
+    assert layer.state is S.READY
+    clock.set(0.425)
+    layer.poll()
+    assert details(layer)[-1] == ("sensor_timeout", "fault",
+                                  "no sensor frame for 0.300 s (limit 0.25 s)")
+
+
+def test_a_wheel_write_that_raises_anything_faults_with_its_name() -> None:
+    layer, sink, _ = driving()
+    sink.fail_with = RuntimeError("adapter gone")
+    assert layer.command(left=150, right=150) is False
+    assert layer.fault_reason == "wheel write failed: RuntimeError: adapter gone"
+
+
+def test_the_smallest_wheel_limit_is_accepted() -> None:
+    layer, sink, _ = connected(max_wheel_mm_s=1)
+    assert layer.command(left=300, right=150) is True
+    assert sink.calls == [(1, 0)]  # both scaled by one factor: 1 and 0.5, rounded to even

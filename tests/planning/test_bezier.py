@@ -138,6 +138,7 @@ def test_length_matches_dense_polyline(p0: tuple[float, float], p1: tuple[float,
     assert curve.length() == pytest.approx(polyline, rel=1e-6, abs=1e-6)
 
 
+@settings(deadline=None)  # no time limit per example: the machine may be loaded
 @given(point, point, point, st.floats(1.0, 200.0))
 def test_sample_spacing(p0: tuple[float, float], p1: tuple[float, float],
                         p2: tuple[float, float], step: float) -> None:

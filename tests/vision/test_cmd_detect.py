@@ -50,8 +50,16 @@ def test_annotate_writes_pictures(tmp_path: Path, capsys: pytest.CaptureFixture[
 def test_palette_from_a_mission(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     # slalom's palette has no orange or yellow: only its colours can come out.
     assert main(["detect", str(SMARTIES), "--mission", str(SLALOM), "--json"]) == 0
-    colours = {m["colour"] for m in json.loads(capsys.readouterr().out)[0]["marks"]}
-    assert colours <= {"red", "green", "blue"}
+    marks = json.loads(capsys.readouterr().out)[0]["marks"]
+    assert {m["colour"] for m in marks} == {"red", "green", "blue"}
+    # the same sweets as with the default palette (which has more colours): the palette names
+    # the marks, it does not lose them
+    assert main(["detect", str(SMARTIES), "--json"]) == 0
+    default = json.loads(capsys.readouterr().out)[0]["marks"]
+    assert {m["colour"] for m in default} - {"red", "green", "blue"}  # e.g. orange
+    assert len(marks) >= 10
+    for m in marks:
+        assert any(math.hypot(m["x"] - d["x"], m["y"] - d["y"]) < 3.0 for d in default), m
 
 
 @pytest.mark.parametrize("name", ["missing.png", "notes.txt"])
