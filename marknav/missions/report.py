@@ -52,6 +52,8 @@ class RunReport:
     # Simulator only: the simulated Create after the run (wheels, OI mode): proof that the
     # wheels were stopped and the robot returned to Passive, whatever ended the run.
     sim_final: dict[str, Any] | None = None
+    # The range law perception learnt while driving (camera.learn_range), ready to paste.
+    range_law: dict[str, Any] | None = None
 
     @property
     def speedup(self) -> float | None:

@@ -207,6 +207,7 @@ def execute(req: RunRequest) -> RunResult:
         finally:
             result.plans = recorded_plans()
             _fill_ground_truth(mission, env, report)
+            _fill_range_law(root, mission, report)
             events.close()
             if req.report_path is not None:
                 report.write(req.report_path)
@@ -220,6 +221,16 @@ def _classify(root: py_trees.behaviour.Behaviour) -> tuple[bool, str]:
     if failure is None:
         return False, f"{root.name} failed"
     return failure.aborted, failure.reason
+
+
+def _fill_range_law(root: py_trees.behaviour.Behaviour, mission: Mission,
+                    report: RunReport) -> None:
+    from marknav.behaviours.perception import Perception
+
+    for node in root.iterate():
+        if isinstance(node, Perception) and node.range_learner is not None:
+            report.range_law = node.learnt_range(pass_times(mission))
+            return
 
 
 def _fill_ground_truth(mission: Mission, env: Environment, report: RunReport) -> None:

@@ -41,6 +41,7 @@ from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, field_validator,
 
 from marknav.errors import InputError, InputErrors
 from marknav.planning.kinematics import Pose, wrap_angle
+from marknav.sim.lens import Lens, random_lens
 from marknav.vision.palette import ColourRange
 from marknav.yamlio import Position, load_yaml_file, parse_model
 
@@ -236,6 +237,8 @@ class Conditions(_Strict):
       left's for the same command (e.g. unequal tyres); the encoders do not see it.
     - ``wheel_slip``: fraction of each wheel's travel lost to slip; the encoders do not see it.
     - ``latency_frames``: the camera delivers the frame taken this many reads earlier.
+    - ``lens``: the camera's distortion and principal point (default a pinhole; randomised
+      worlds draw a webcam's, :func:`marknav.sim.lens.random_lens`).
     """
 
     lighting_gain: _Gain = 1.0
@@ -245,6 +248,8 @@ class Conditions(_Strict):
     wheel_mismatch: Annotated[float, Field(ge=-0.5, le=0.5, allow_inf_nan=False)] = 0.0
     wheel_slip: Annotated[float, Field(ge=0.0, lt=1.0, allow_inf_nan=False)] = 0.0
     latency_frames: Annotated[int, Field(ge=0, le=30)] = 0
+    #: The camera's lens (distortion, principal point): :class:`marknav.sim.lens.Lens`.
+    lens: Lens = Lens()
 
     @field_validator("cast", mode="before")
     @classmethod
@@ -435,6 +440,9 @@ def generate_world(
         cond = conditions
     elif randomised:
         cond = random_conditions(rng)
+        # The lens from its own stream, so the other draws stay what they were.
+        cond = cond.model_copy(update={"lens": random_lens(np.random.default_rng([int(seed),
+                                                                                0x1E45]))})
     elif conditions == "default":
         cond = Conditions()
     else:

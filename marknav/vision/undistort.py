@@ -108,22 +108,35 @@ def ellipse_outline(x: float, y: float, axes: tuple[float, float], angle_deg: fl
 
 
 def undistort_mark(mark: Mark, intrinsics: Intrinsics) -> Mark:
-    """The mark as the ideal (undistorted) camera with the same K would have seen it: its outline
-    undistorted and refitted (centre, semi-axes, angle). Undistorted marks are returned as they
-    are when the lens has no distortion."""
+    """The mark as the ideal (undistorted) camera with the same K would have seen it.
+
+    An ellipse's outline is undistorted and refitted (centre, semi-axes, angle). A mark the
+    detector calls a circle reports no orientation (its two axes may still differ by the lens's
+    squash): its major axis is taken along the direction the lens stretches most at its centre
+    (the distortion's Jacobian's first singular vector). Marks are returned as they are when the lens has no
+    distortion."""
     if not intrinsics.distorted:
         return mark
-    pts = undistort_points(ellipse_outline(mark.x, mark.y, mark.axes, mark.angle_deg),
-                           intrinsics)
-    (ux, uy), (w, h), angle = cv2.fitEllipse(pts.astype(np.float32))
-    major, minor = (0.5 * max(w, h), 0.5 * min(w, h))
-    if w < h:  # fitEllipse's angle is of its first axis ("width"): turn to the major axis
+    h = 2.0
+    probe = undistort_points([(mark.x, mark.y), (mark.x + h, mark.y), (mark.x, mark.y + h)],
+                             intrinsics)
+    centre = probe[0]
+    angle_deg = mark.angle_deg
+    if mark.shape == "circle":
+        # The lens squashes a round mark along its Jacobian's minor direction: that is where
+        # the detected minor axis lies.
+        ju = np.stack([probe[1] - centre, probe[2] - centre], axis=1) / h
+        u, _, _ = np.linalg.svd(np.linalg.inv(ju))
+        angle_deg = math.degrees(math.atan2(u[1, 0], u[0, 0]))
+    pts = undistort_points(ellipse_outline(mark.x, mark.y, mark.axes, angle_deg), intrinsics)
+    _, (w, hh), angle = cv2.fitEllipse(pts.astype(np.float32))
+    major, minor = (0.5 * max(w, hh), 0.5 * min(w, hh))
+    if w < hh:  # fitEllipse's angle is of its first axis ("width"): turn to the major axis
         angle += 90.0
-    angle = float(angle) % 180.0
-    centre = undistort_points([(mark.x, mark.y)], intrinsics)[0]
-    # The centre: the undistorted image of the detected centre (the refitted centre of a
-    # symmetric outline agrees to a fraction of a pixel; the projected centre is what eq. 21 wants).
-    del ux, uy
+    # The centre: the undistorted image of the detected centre (the projected centre is what
+    # eq. 21 wants; the refitted centre of the outline agrees to a fraction of a pixel).
+    if mark.shape == "circle":
+        return replace(mark, x=float(centre[0]), y=float(centre[1]), radius=float(major),
+                       axes=(float(major), float(minor)))
     return replace(mark, x=float(centre[0]), y=float(centre[1]), radius=float(major),
-                   axes=(float(major), float(minor)),
-                   angle_deg=angle if mark.shape != "circle" else mark.angle_deg)
+                   axes=(float(major), float(minor)), angle_deg=float(angle) % 180.0)
