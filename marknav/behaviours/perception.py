@@ -13,7 +13,9 @@ that supports it): marks stand still, so their drift in the odometry frame measu
 ratio (:mod:`marknav.planning.wheel_ratio`); each precise fit rescales the right wheel. The same
 stillness measures the range law (``camera.learn_range``, on by default): the distance driven
 toward a mark is what its radius change must mean (:mod:`marknav.vision.range_learning`); each
-accepted fit replaces the law. With intrinsics (the mission's, or the simulated camera's own),
+accepted fit replaces the law (and restarts the wheel ratio's window, whose marks were placed
+with the old law). The two learners see different things: a wrong law moves a mark along the
+line of sight, unequal wheels mostly across it. With intrinsics (the mission's, or the simulated camera's own),
 every detection is undistorted (:mod:`marknav.vision.undistort`) before it is estimated, and the
 lateral offset is measured from the principal point; the law to start from is chosen by
 :func:`marknav.vision.camera_setup.mission_range_model`.
@@ -328,6 +330,8 @@ class Perception(PerceptionBase):
         self._range_model = step.after
         self.range_calibrations.append(step)
         self._range_times.append(self.now())
+        if self._calibrator is not None and abs(step.change) > 0.01:
+            self._calibrator.reset()  # its window's marks were placed with the old law
         fit = step.fit
         log.info("range law: a %.0f b %.4f -> a %.0f b %.4f (%+.1f %% at 1 m; σ %.1f %%, "
                  "exponent σ %.3f; %d sightings of %d marks, χ %.2f, %d outliers dropped)",

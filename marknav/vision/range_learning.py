@@ -15,12 +15,16 @@ the sightings agree — the idea of :mod:`marknav.planning.wheel_ratio`, applied
 some mark has been seen ``min_samples`` times across ``min_log_spread`` of ln r. The fit is
 Gauss–Newton on ``θ = (ln d₀, b)`` with the mission's law (or the pinhole law of the
 intrinsics) as prior (σ ``prior_sigma_scale`` and ``prior_sigma_exponent``), each mark's
-position profiled out (its weighted mean). Sightings are weighted by the range noise (σ grows
+position profiled out (its weighted mean), the residuals taken along each line of sight (where
+a wrong law moves a mark; a heading error of the odometry moves it mostly across). Sightings
+are weighted by the range noise (σ grows
 with d²) and their information is divided by ``inflation`` (consecutive frames share their
 errors). Guards:
 
-- sightings outside ``min_range_mm``..``max_range_mm``, or of marks cut by the image edge (the
-  caller decides), are not added; after :meth:`interrupt` (a bump) new sightings are never tied
+- sightings outside ``min_range_mm``..``max_range_mm``, more than ``max_bearing_rad`` off the
+  axis, or of marks cut by the image edge (the caller decides), are not added, nor any while
+  the robot turns more than ``max_turn_rad`` between frames (a frame's latency then shows as a
+  sideways error); after :meth:`interrupt` (a bump) new sightings are never tied
   to earlier ones, since odometry across a bump is not trusted;
 - the worst sightings (normalised residual above ``outlier_sigma`` × the median) are dropped
   once and the rest refitted;
@@ -92,25 +96,27 @@ class RangeLawStep:
 
 
 def _noise_mm(d: FloatArray) -> FloatArray:
-    """Expected scatter of a sighting along the line of sight at range d (mm): a quarter pixel of
-    radius at f·R ≈ 6e4 px·mm, plus a floor for the pose and the lateral offset."""
-    return 8.0 + 0.25 * d * d / 6.0e4
+    """Expected scatter of a sighting along the line of sight at range d (mm): an eighth of a
+    pixel of radius at f·R ≈ 6e4 px·mm, plus a floor for the pose."""
+    return 4.0 + 0.12 * d * d / 6.0e4
 
 
 def _residuals(theta: FloatArray, s: FloatArray, marks: npt.NDArray[np.intp], n_marks: int,
                r_ref: float, weights: FloatArray | None = None) -> FloatArray:
-    """Weighted residuals (2N) of the sightings from their marks' weighted means."""
+    """Weighted residuals (N) of the sightings from their marks' weighted means, along each
+    sighting's line of sight: a wrong law moves a mark along it, a heading error of the odometry
+    (unequal wheels, still being calibrated) mostly across it."""
     x, y, th, r, left = s[:, 0], s[:, 1], s[:, 2], s[:, 3], s[:, 4]
     d = np.exp(theta[0]) * (r / r_ref) ** theta[1]
     c, sn = np.cos(th), np.sin(th)
-    mx = x + c * d - sn * left
-    my = y + sn * d + c * left
+    vx, vy = c * d - sn * left, sn * d + c * left
+    mx, my = x + vx, y + vy
     w = 1.0 / _noise_mm(d) ** 2 if weights is None else weights
     tw = np.bincount(marks, w, n_marks)
     cx = np.bincount(marks, w * mx, n_marks) / tw
     cy = np.bincount(marks, w * my, n_marks) / tw
-    sw = np.sqrt(w)
-    return np.concatenate([sw * (mx - cx[marks]), sw * (my - cy[marks])])
+    norm = np.hypot(vx, vy)
+    return np.sqrt(w) * ((mx - cx[marks]) * vx + (my - cy[marks]) * vy) / norm
 
 
 def fit_window(sightings: Sequence[Sighting], prior: tuple[float, float],
@@ -127,7 +133,7 @@ def fit_window(sightings: Sequence[Sighting], prior: tuple[float, float],
     dropped = 0
     fit = _gauss_newton(keep, prior, prior_info, r_ref, inflation, iterations)
     res, sig = fit
-    per = np.hypot(res[: len(keep)], res[len(keep):])
+    per = np.abs(res)
     med = float(np.median(per)) if len(per) else 0.0
     if med > 0:
         good = [s for s, e in zip(keep, per, strict=True) if e <= outlier_sigma * med]
@@ -138,7 +144,7 @@ def fit_window(sightings: Sequence[Sighting], prior: tuple[float, float],
     theta, info = sig
     cov = np.linalg.inv(info)
     n_marks = len({s.mark for s in keep})
-    dof = max(2 * len(keep) - 2 * n_marks, 1)
+    dof = max(len(keep) - n_marks - 2, 1)
     chi = math.sqrt(float(res @ res) / dof)
     return WindowFit(ln_d0=float(theta[0]), b=float(theta[1]),
                      cov=((float(cov[0, 0]), float(cov[0, 1])),
@@ -182,9 +188,8 @@ def _gauss_newton(sightings: Sequence[Sighting], prior: tuple[float, float],
 @dataclass
 class _Cluster:
     colour: str
-    ref: tuple[float, float]  # where the last sighting put it
+    last: Sighting  # its latest sighting (placed with the current law when compared)
     id: int
-    radii: list[float] = field(default_factory=list)
 
 
 @dataclass
@@ -194,7 +199,7 @@ class RangeLawLearner:
     Every sighting is kept (the newest ``max_samples``) with the mark it belongs to; each
     :meth:`update` after ``refit_every`` new sightings refits all of them from the prior, once
     some mark has been seen ``min_samples`` times across ``min_log_spread`` of ln r (a drive of
-    ~12 % of its range toward it). The long baseline of one approach is what makes the law
+    ~22 % of its range toward it). The long baseline of one approach is what makes the law
     observable: a mark approached from 2 m to 1 m pins the law's slope over that whole metre.
 
     Args:
@@ -203,31 +208,42 @@ class RangeLawLearner:
         prior_sigma_scale: σ of ln d₀ of the prior (0.3: a law 30 % off is one σ).
         prior_sigma_exponent: σ of b of the prior.
         learn_exponent: also learn b (else only the scale).
+        max_sigma: a fit replaces the law only once σ of its ln d₀ is at most this.
+        max_turn_rad: no sightings from frames whose pose turned more than this since the
+            previous frame's.
+        max_bearing_rad: no sightings of marks farther off the camera's axis.
+        settle_sigma: :attr:`settled` once σ of ln d₀ is at most this.
     """
 
     prior: PowerLaw
     r_ref: float = 0.0
     prior_sigma_scale: float = 0.3
-    prior_sigma_exponent: float = 0.15
+    prior_sigma_exponent: float = 0.1
     learn_exponent: bool = True
     max_range_mm: float = 3000.0
     min_range_mm: float = 250.0
     cluster_mm: float = 300.0
     cluster_fraction: float = 0.2
-    min_samples: int = 16
-    min_log_spread: float = 0.12
+    min_samples: int = 30
+    min_log_spread: float = 0.25
     max_samples: int = 600
     refit_every: int = 10
-    inflation: float = 4.0
+    inflation: float = 2.0
     outlier_sigma: float = 4.0
     max_chi: float = 4.0
     max_step: float = 0.4
+    max_sigma: float = 0.08
+    max_turn_rad: float = 0.01
+    max_bearing_rad: float = 0.35
+    settle_sigma: float = 0.03
     steps: list[RangeLawStep] = field(default_factory=list)
     rejected: int = 0
     _sightings: list[Sighting] = field(default_factory=list)
     _clusters: list[_Cluster] = field(default_factory=list)
     _next_id: int = 0
     _new: int = 0
+    _last_pose: tuple[float, float, float] | None = None
+    _turning: bool = False
     _theta: tuple[float, float] = (0.0, 0.0)
     _theta0: tuple[float, float] = (0.0, 0.0)
     _info0: FloatArray = field(default_factory=lambda: np.zeros((2, 2)))
@@ -253,6 +269,13 @@ class RangeLawLearner:
         return len(self._sightings)
 
     @property
+    def settled(self) -> bool:
+        """Whether a fit was accepted and the scale is known to ``settle_sigma``: until then
+        the marks' positions smear with the law's error, and whatever else learns from them
+        (the wheel ratio) should wait."""
+        return bool(self.steps) and self.sigma[0] <= self.settle_sigma
+
+    @property
     def sigma(self) -> tuple[float, float]:
         """Current σ of (ln d₀, b)."""
         return (math.sqrt(float(self._cov[0, 0])), math.sqrt(float(self._cov[1, 1])))
@@ -267,28 +290,49 @@ class RangeLawLearner:
         """One sighting of a ``colour`` mark from odometry ``pose`` (x, y, θ)."""
         if not (radius_px > 0 and math.isfinite(radius_px) and math.isfinite(left_mm)):
             return
+        if pose != self._last_pose:  # a new frame: is the robot turning?
+            last, self._last_pose = self._last_pose, pose
+            self._turning = last is not None and abs(
+                math.remainder(pose[2] - last[2], 2.0 * math.pi)) > self.max_turn_rad
+        if self._turning:
+            return  # a frame's latency shows up as a sideways error while the robot turns
         d = self.law.distance_mm(radius_px)
         if not self.min_range_mm <= d <= self.max_range_mm:
             return
+        if abs(math.atan2(left_mm, d)) > self.max_bearing_rad:
+            return
         x, y, th = pose
-        mx = x + math.cos(th) * d - math.sin(th) * left_mm
-        my = y + math.sin(th) * d + math.cos(th) * left_mm
+        mx, my = self._place(x, y, th, radius_px, left_mm)
         gate = max(self.cluster_mm, self.cluster_fraction * math.hypot(d, left_mm))
-        near = [(math.hypot(mx - c.ref[0], my - c.ref[1]), c) for c in self._clusters
-                if c.colour == colour]
-        near = [(g, c) for g, c in near if g <= gate]
+        near = []
+        for c in self._clusters:
+            if c.colour == colour:
+                # The cluster's latest sighting, placed with today's law (it may have changed
+                # since): a mark followed frame by frame stays one cluster.
+                cx, cy = self._place(c.last.x, c.last.y, c.last.theta, c.last.radius_px,
+                                     c.last.left_mm)
+                g = math.hypot(mx - cx, my - cy)
+                if g <= gate:
+                    near.append((g, c))
         if near:
             cluster = min(near, key=lambda gc: gc[0])[1]
         else:
-            cluster = _Cluster(colour, (mx, my), self._next_id)
+            cluster = _Cluster(colour, Sighting(x, y, th, radius_px, left_mm, self._next_id),
+                               self._next_id)
             self._next_id += 1
             self._clusters.append(cluster)
-        cluster.ref = (mx, my)  # follow the smear of a wrong law along the line of sight
-        cluster.radii.append(radius_px)
-        self._sightings.append(Sighting(x, y, th, radius_px, left_mm, cluster.id))
+        sighting = Sighting(x, y, th, radius_px, left_mm, cluster.id)
+        cluster.last = sighting
+        self._sightings.append(sighting)
         if len(self._sightings) > self.max_samples:
             del self._sightings[: len(self._sightings) - self.max_samples]
         self._new += 1
+
+    def _place(self, x: float, y: float, th: float, radius_px: float,
+               left_mm: float) -> tuple[float, float]:
+        d = self.law.distance_mm(radius_px)
+        return (x + math.cos(th) * d - math.sin(th) * left_mm,
+                y + math.sin(th) * d + math.cos(th) * left_mm)
 
     def _ready(self) -> bool:
         by_mark: dict[int, list[float]] = {}
@@ -313,6 +357,8 @@ class RangeLawLearner:
         radii = [s.radius_px for s in self._sightings[-self.refit_every * 4:]]
         change = max(abs(after.distance_mm(r) / before.distance_mm(r) - 1.0)
                      for r in (min(radii), max(radii)))
+        if math.sqrt(fit.cov[0][0]) > self.max_sigma:
+            return None  # not precise enough yet: keep the law, keep collecting
         if fit.chi > self.max_chi or change > self.max_step or not -2.0 < after_b < -0.4:
             self.rejected += 1
             return None

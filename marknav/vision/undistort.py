@@ -113,30 +113,30 @@ def undistort_mark(mark: Mark, intrinsics: Intrinsics) -> Mark:
     An ellipse's outline is undistorted and refitted (centre, semi-axes, angle). A mark the
     detector calls a circle reports no orientation (its two axes may still differ by the lens's
     squash): its major axis is taken along the direction the lens stretches most at its centre
-    (the distortion's Jacobian's first singular vector). Marks are returned as they are when the lens has no
-    distortion."""
+    (the distortion's Jacobian's first singular vector). The centre is the refitted one. Marks
+    are returned as they are when the lens has no distortion."""
     if not intrinsics.distorted:
         return mark
     h = 2.0
-    probe = undistort_points([(mark.x, mark.y), (mark.x + h, mark.y), (mark.x, mark.y + h)],
-                             intrinsics)
-    centre = probe[0]
     angle_deg = mark.angle_deg
     if mark.shape == "circle":
+        probe = undistort_points([(mark.x, mark.y), (mark.x + h, mark.y),
+                                  (mark.x, mark.y + h)], intrinsics)
+        centre = probe[0]
         # The lens squashes a round mark along its Jacobian's minor direction: that is where
         # the detected minor axis lies.
         ju = np.stack([probe[1] - centre, probe[2] - centre], axis=1) / h
         u, _, _ = np.linalg.svd(np.linalg.inv(ju))
         angle_deg = math.degrees(math.atan2(u[1, 0], u[0, 0]))
     pts = undistort_points(ellipse_outline(mark.x, mark.y, mark.axes, angle_deg), intrinsics)
-    _, (w, hh), angle = cv2.fitEllipse(pts.astype(np.float32))
+    (ux, uy), (w, hh), angle = cv2.fitEllipse(pts.astype(np.float32))
     major, minor = (0.5 * max(w, hh), 0.5 * min(w, hh))
     if w < hh:  # fitEllipse's angle is of its first axis ("width"): turn to the major axis
         angle += 90.0
-    # The centre: the undistorted image of the detected centre (the projected centre is what
-    # eq. 21 wants; the refitted centre of the outline agrees to a fraction of a pixel).
+    # The centre is the refitted one: the lens moves a mark's outline unevenly, so the
+    # undistorted image of the detected centre is off by up to a few pixels for big marks.
     if mark.shape == "circle":
-        return replace(mark, x=float(centre[0]), y=float(centre[1]), radius=float(major),
+        return replace(mark, x=float(ux), y=float(uy), radius=float(major),
                        axes=(float(major), float(minor)))
-    return replace(mark, x=float(centre[0]), y=float(centre[1]), radius=float(major),
+    return replace(mark, x=float(ux), y=float(uy), radius=float(major),
                    axes=(float(major), float(minor)), angle_deg=float(angle) % 180.0)
