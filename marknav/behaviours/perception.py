@@ -15,9 +15,10 @@ stillness measures the range law (``camera.learn_range``, on by default): the di
 toward a mark is what its radius change must mean (:mod:`marknav.vision.range_learning`); each
 accepted fit replaces the law (and restarts the wheel ratio's window, whose marks were placed
 with the old law). The two learners see different things: a wrong law moves a mark along the
-line of sight, unequal wheels mostly across it. With intrinsics (the mission's, or the simulated camera's own),
-every detection is undistorted (:mod:`marknav.vision.undistort`) before it is estimated, and the
-lateral offset is measured from the principal point; the law to start from is chosen by
+line of sight, unequal wheels mostly across it. With intrinsics (the mission's, or the simulated
+camera's own), every detection is undistorted (:mod:`marknav.vision.undistort`) before it is
+estimated, and the lateral offset is measured from the principal point; the law to start from is
+chosen by
 :func:`marknav.vision.camera_setup.mission_range_model`.
 
 Status: SUCCESS every tick, also when no new frame came (the previous marks stay, with their
