@@ -368,6 +368,9 @@ class Perception(PerceptionBase):
         est = estimate(x_px=mark.x, radius_px=mark.radius, minor_px=mark.axes[1],
                        cx=keys.image_centre(width) if cx is None else cx,
                        model=self._range_model, mark_radius_mm=self._mark_radius_mm)
+        # x_px is kept relative to the principal point, as if it were the image centre (what
+        # SeenMark.pixel_error, the approach's steering, measures from).
+        x_px = mark.x if cx is None else mark.x - cx + keys.image_centre(width)
         return self.seen_mark(colour=mark.colour, forward_mm=est.forward_mm,
-                              left_mm=est.left_mm, x_px=mark.x, radius_px=mark.radius,
+                              left_mm=est.left_mm, x_px=x_px, radius_px=mark.radius,
                               image_width=width, t=t, pose=pose)
