@@ -39,7 +39,9 @@ def test_the_papers_law_on_the_simulated_camera_is_learnt(tmp_path: Path,
     assert law["source"] == "mission camera.range" and law["started_from"]["b"] == -0.9434
     assert abs(_rel(law["started_from"], 1000.0)) > 0.2
     second = law["at"][1]  # the law in use when the second mark was passed
-    assert abs(_rel(second, 1000.0)) < 0.03
+    # From 26 % (1 m) and 20 % (2 m) too far to within 5 % where the bypass is decided.
+    for d in (600.0, 1000.0, 1500.0):
+        assert abs(_rel(second, d)) < 0.05
     assert law["rejected"] <= law["steps"]
 
 
