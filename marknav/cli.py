@@ -32,6 +32,7 @@ COMMANDS: tuple[str, ...] = (
     "marknav.benchmarks",
     "marknav.vision.cmd_detect",
     "marknav.vision.cmd_calibrate",
+    "marknav.vision.cmd_calibrate_camera",
     "marknav.sim.cmd_sim_robot",
     "marknav.missions.cmd_schema",
     "marknav.vision.cmd_serve_camera",

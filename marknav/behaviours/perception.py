@@ -10,7 +10,16 @@ associate`), so every later node of the tick sees one consistent picture.
 
 While it watches, it calibrates odometry (``robot.calibrate_wheels``, on by default, with a robot
 that supports it): marks stand still, so their drift in the odometry frame measures the wheels'
-ratio (:mod:`marknav.planning.wheel_ratio`); each precise fit rescales the right wheel.
+ratio (:mod:`marknav.planning.wheel_ratio`); each precise fit rescales the right wheel. The same
+stillness measures the range law (``camera.learn_range``, on by default): the distance driven
+toward a mark is what its radius change must mean (:mod:`marknav.vision.range_learning`); each
+accepted fit replaces the law (and restarts the wheel ratio's window, whose marks were placed
+with the old law). The two learners see different things: a wrong law moves a mark along the
+line of sight, unequal wheels mostly across it. With intrinsics (the mission's, or the simulated
+camera's own), every detection is undistorted (:mod:`marknav.vision.undistort`) before it is
+estimated, and the lateral offset is measured from the principal point; the law to start from is
+chosen by
+:func:`marknav.vision.camera_setup.mission_range_model`.
 
 Status: SUCCESS every tick, also when no new frame came (the previous marks stay, with their
 time), until no frame has come for ``camera_timeout_s``: then FAILURE, "camera lost", and the
@@ -22,8 +31,10 @@ mission aborts.
 
 from __future__ import annotations
 
+import bisect
 import logging
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -38,11 +49,14 @@ from marknav.behaviours.target import (
     remember,
     with_sighting,
 )
-from marknav.drivers.robot import WheelCalibratable
+from marknav.drivers.robot import BUMPED, WheelCalibratable
 from marknav.planning.kinematics import Pose, to_world_frame
 from marknav.planning.wheel_ratio import WheelRatioCalibrator, WheelRatioStep
+from marknav.vision.camera_setup import as_power_law, mission_intrinsics, mission_range_model
 from marknav.vision.estimate import Pinhole, PowerLaw, RangeModel, estimate
+from marknav.vision.range_learning import RangeLawLearner, RangeLawStep
 from marknav.vision.sources import Frame, FrameSource
+from marknav.vision.undistort import Intrinsics, undistort_mark
 
 if TYPE_CHECKING:
     from marknav.missions.schema import Mission
@@ -205,6 +219,13 @@ class Perception(PerceptionBase):
         self._calibrator: WheelRatioCalibrator | None = None
         #: Wheel-ratio corrections applied so far (newest last).
         self.wheel_calibrations: list[WheelRatioStep] = []
+        self._intrinsics: Intrinsics | None = None
+        self._scaled: tuple[int, int, Intrinsics | None] | None = None
+        #: The range law's learner (``camera.learn_range``), its steps and where the law began.
+        self.range_learner: RangeLawLearner | None = None
+        self.range_calibrations: list[RangeLawStep] = []
+        self._range_times: list[float] = []
+        self.range_source = "setup(range_model=...)"
 
     def configure(self, **kwargs: Any) -> None:
         camera = kwargs.get("camera")
@@ -222,8 +243,14 @@ class Perception(PerceptionBase):
         mission = self.mission
         if mission is not None:
             self._mark_radius_mm = mission.marks.radius_mm
+            self._intrinsics = mission_intrinsics(mission, self._camera)
             if self._range_model is None:
-                self._range_model = range_model_of(mission)
+                self._range_model, self.range_source = mission_range_model(mission,
+                                                                          self._camera)
+                prior = as_power_law(self._range_model)
+                if mission.camera.learn_range and prior is not None:
+                    self.range_learner = RangeLawLearner(prior=prior)
+                    self._range_model = prior
             if self._detector is None:
                 from marknav.vision.detect import Detector
 
@@ -249,6 +276,9 @@ class Perception(PerceptionBase):
         t = self.now()
         found: list[Mark] = list(self._detector.detect(frame.image))
         self.last_frame, self.last_detections = frame, tuple(found)
+        intr = self._frame_intrinsics(width, height)
+        if intr is not None and intr.distorted:
+            found = [undistort_mark(m, intr) for m in found]
         robot = self.robot
         calibrated = (robot if self._calibrator is not None
                       and isinstance(robot, WheelCalibratable) else None)
@@ -256,9 +286,12 @@ class Perception(PerceptionBase):
             pose, sensitivity = calibrated.odometry_snapshot()
         else:
             pose, sensitivity = robot.pose(), None
-        marks = tuple(self._to_seen(m, width, t, pose) for m in found)
+        cx = intr.cx if intr is not None else keys.image_centre(width)
+        marks = tuple(self._to_seen(m, width, t, pose, cx) for m in found)
         if calibrated is not None and sensitivity is not None:
             self._calibrate(calibrated, pose, sensitivity, marks)
+        if self.range_learner is not None:
+            self._learn_range(pose, found, marks, width, height)
         info = keys.FrameInfo(index=frame.index, t=t, width=width, height=height,
                               marks=len(marks))
         return Observation(frame=info, marks=marks, pose=pose)
@@ -285,11 +318,77 @@ class Perception(PerceptionBase):
                  "sightings of %d marks, residual %.0f mm)", before, robot.right_wheel_scale,
                  step.scale_sigma, fit.epsilon, fit.sigma, fit.samples, fit.marks, fit.rms_mm)
 
-    def _to_seen(self, mark: Mark, width: int, t: float, pose: Pose) -> keys.SeenMark:
+    def _frame_intrinsics(self, width: int, height: int) -> Intrinsics | None:
+        """The intrinsics at this frame's size (scaled if the camera delivers another size than
+        the mission's camera.width × height)."""
+        intr = self._intrinsics
+        if intr is None or self.mission is None:
+            return intr
+        if self._scaled is None or self._scaled[:2] != (width, height):
+            cam = self.mission.camera
+            same = (width, height) == (cam.width, cam.height)
+            self._scaled = (width, height, intr if same else
+                            intr.scaled(width / cam.width, height / cam.height))
+        return self._scaled[2]
+
+    def _learn_range(self, pose: Pose, found: list[Mark], marks: tuple[keys.SeenMark, ...],
+                     width: int, height: int) -> None:
+        learner = self.range_learner
+        assert learner is not None
+        if self.robot.safety_state == BUMPED:
+            learner.interrupt()  # the bump moved the robot (or the mark) behind odometry's back
+            return
+        for m, seen in zip(found, marks, strict=True):
+            r = m.radius
+            if m.x - r < 2 or m.y - r < 2 or m.x + r > width - 3 or m.y + r > height - 3:
+                continue  # cut by the image edge: its radius is not the mark's
+            learner.add(m.colour, (pose.x, pose.y, pose.theta), r, seen.left_mm)
+        step = learner.update()
+        if step is None:
+            return
+        self._range_model = step.after
+        self.range_calibrations.append(step)
+        self._range_times.append(self.now())
+        if self._calibrator is not None and abs(step.change) > 0.01:
+            self._calibrator.reset()  # its window's marks were placed with the old law
+        fit = step.fit
+        log.info("range law: a %.0f b %.4f -> a %.0f b %.4f (%+.1f %% at 1 m; σ %.1f %%, "
+                 "exponent σ %.3f; %d sightings of %d marks, χ %.2f, %d outliers dropped)",
+                 step.before.a, step.before.b, step.after.a, step.after.b, 100.0 * step.change,
+                 100.0 * step.sigma_scale, step.sigma_exponent, fit.samples, fit.marks, fit.chi,
+                 fit.dropped)
+
+    def learnt_range(self, times: Sequence[float | None] = ()) -> dict[str, Any] | None:
+        """The learnt law for the report: ``{a, b, steps, rejected, samples, started_from,
+        source, yaml}``, and ``at`` — the law in use at each of ``times`` (e.g. the waypoints'
+        pass times; ``None`` stays ``None``). ``None`` without a learner."""
+        learner = self.range_learner
+        if learner is None:
+            return None
+        law = learner.law
+
+        def at(t: float | None) -> dict[str, float] | None:
+            if t is None:
+                return None
+            k = bisect.bisect_right(self._range_times, t)
+            used = self.range_calibrations[k - 1].after if k > 0 else learner.prior
+            return {"a": round(used.a, 1), "b": round(used.b, 5)}
+
+        return {"a": round(law.a, 1), "b": round(law.b, 5), "steps": len(learner.steps),
+                "rejected": learner.rejected, "samples": learner.samples,
+                "started_from": {"a": round(learner.prior.a, 1), "b": learner.prior.b},
+                "source": self.range_source, "at": [at(t) for t in times],
+                "yaml": f"range: {{model: power, a: {law.a:.6g}, b: {law.b:.6g}}}"}
+
+    def _to_seen(self, mark: Mark, width: int, t: float, pose: Pose,
+                 cx: float | None = None) -> keys.SeenMark:
         assert self._range_model is not None and self._mark_radius_mm is not None
         est = estimate(x_px=mark.x, radius_px=mark.radius, minor_px=mark.axes[1],
-                       cx=keys.image_centre(width), model=self._range_model,
-                       mark_radius_mm=self._mark_radius_mm)
+                       cx=keys.image_centre(width) if cx is None else cx,
+                       model=self._range_model, mark_radius_mm=self._mark_radius_mm)
+        # x_px is kept relative to the principal point, as if it were the image centre (what
+        # SeenMark.pixel_error, the approach's steering, measures from).
+        x_px = mark.x if cx is None else mark.x - cx + keys.image_centre(width)
         return self.seen_mark(colour=mark.colour, forward_mm=est.forward_mm,
-                              left_mm=est.left_mm, x_px=mark.x, radius_px=mark.radius,
+                              left_mm=est.left_mm, x_px=x_px, radius_px=mark.radius,
                               image_width=width, t=t, pose=pose)

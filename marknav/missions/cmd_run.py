@@ -151,6 +151,10 @@ def run(args: argparse.Namespace) -> int:
                 side = f"passed on its {wp.passed_on} ({ok})"
             truth = f"; ground truth: {side}, closest {wp.min_clearance_mm:.0f} mm"
         print(f"  {i}. {wp.colour} (pass on its {wp.side}): {wp.outcome}{truth}")
+    law = report.range_law
+    if law is not None and law.get("steps"):
+        print(f"range law learnt from {law['steps']} fits (started from {law['source']}); "
+              f"paste under camera: in the mission:\n  {law['yaml']}")
     if req.written:
         line = written()
         if args.record is not None and args.record.exists():

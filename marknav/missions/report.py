@@ -59,6 +59,8 @@ class RunReport:
     sim_final: dict[str, Any] | None = None
     # The --set KEY=VALUE settings the mission ran with, on top of its file.
     overrides: list[str] = field(default_factory=list)
+    # The range law perception learnt while driving (camera.learn_range), ready to paste.
+    range_law: dict[str, Any] | None = None
 
     @property
     def speedup(self) -> float | None:

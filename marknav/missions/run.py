@@ -193,6 +193,7 @@ def execute(req: RunRequest) -> RunResult:
                          file=str(req.events_path), field="--events") from None
     env: Environment | None = None
     result: RunResult | None = None
+    root: py_trees.behaviour.Behaviour | None = None
     try:
         root = build_mission_tree(mission)
         keys.reset()
@@ -223,13 +224,14 @@ def execute(req: RunRequest) -> RunResult:
         raise
     finally:
         with signals.deferred():
-            _finish(req, mission, env, result, report, events)
+            _finish(req, mission, env, result, report, events, root)
     assert result is not None
     return result
 
 
 def _finish(req: RunRequest, mission: Mission, env: Environment | None,
-            result: RunResult | None, report: RunReport, events: EventLog) -> None:
+            result: RunResult | None, report: RunReport, events: EventLog,
+            root: py_trees.behaviour.Behaviour | None = None) -> None:
     """Close the environment, complete and write the report and the log, draw the plot.
     An exception from the ground truth (a bug) is raised again once the files are written."""
     failure: Exception | None = None
@@ -242,6 +244,8 @@ def _finish(req: RunRequest, mission: Mission, env: Environment | None,
             result.plans = recorded_plans()
             try:
                 extra = _fill_ground_truth(mission, env, report)
+                if root is not None:
+                    _fill_range_law(root, mission, report)
             except Exception as exc:
                 failure = exc
         events.close()
@@ -295,6 +299,16 @@ def _classify(root: py_trees.behaviour.Behaviour) -> tuple[bool, str]:
     if failure is None:
         return False, f"{root.name} failed"
     return failure.aborted, failure.reason
+
+
+def _fill_range_law(root: py_trees.behaviour.Behaviour, mission: Mission,
+                    report: RunReport) -> None:
+    from marknav.behaviours.perception import Perception
+
+    for node in root.iterate():
+        if isinstance(node, Perception) and node.range_learner is not None:
+            report.range_law = node.learnt_range(pass_times(mission))
+            return
 
 
 def _fill_ground_truth(mission: Mission, env: Environment, report: RunReport) -> dict[str, Any]:

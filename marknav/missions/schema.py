@@ -50,6 +50,7 @@ from marknav.missions.registry import (
     registry_with_plugins,
 )
 from marknav.missions.tree_checks import check_tree
+from marknav.sim.camera_model import SIM_FOCAL_PX, SIM_HEIGHT, SIM_WIDTH
 from marknav.vision.palette import ColourRange, Palette
 from marknav.yamlio import Loc, Position, YamlDocument, load_yaml_file, validation_errors
 
@@ -230,25 +231,75 @@ _RANGE_MODELS: dict[str, type[PowerRange] | type[PinholeRange]] = {
 }
 
 
+class CameraIntrinsics(BaseModel):
+    """A calibrated camera (``marknav calibrate-camera`` prints this block): camera matrix and
+    lens distortion at the camera's width × height."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    fx: float = Field(gt=0, allow_inf_nan=False, description="Focal length along u, px.")
+    fy: float = Field(gt=0, allow_inf_nan=False, description="Focal length along v, px.")
+    cx: float = Field(ge=0, allow_inf_nan=False, description="Principal point, column (px).")
+    cy: float = Field(ge=0, allow_inf_nan=False, description="Principal point, row (px).")
+    dist: list[Annotated[float, Field(allow_inf_nan=False)]] = Field(
+        default_factory=list,
+        description="Distortion coefficients in OpenCV's order: k1, k2, p1, p2[, k3[, k4, k5, "
+        "k6]] (4, 5 or 8 values; empty: no distortion).",
+    )
+
+    @field_validator("dist")
+    @classmethod
+    def _dist_length(cls, dist: list[float]) -> list[float]:
+        if len(dist) not in (0, 4, 5, 8):
+            raise ValueError(f"needs 4, 5 or 8 coefficients (k1, k2, p1, p2[, k3...]), got "
+                             f"{len(dist)}")
+        return dist
+
+
 class Camera(BaseModel):
     """The camera and how a mark's image size becomes its distance."""
 
     model_config = ConfigDict(extra="forbid")
 
-    width: int = Field(default=640, gt=0, le=MAX_CAMERA_SIDE_PX,
+    width: int = Field(default=SIM_WIDTH, gt=0, le=MAX_CAMERA_SIDE_PX,
                        description="Image width in pixels.")
-    height: int = Field(default=480, gt=0, le=MAX_CAMERA_SIDE_PX,
+    height: int = Field(default=SIM_HEIGHT, gt=0, le=MAX_CAMERA_SIDE_PX,
                         description="Image height in pixels.")
     focal_px: float = Field(
-        default=590.0, gt=0, allow_inf_nan=False,
+        default=SIM_FOCAL_PX, gt=0, allow_inf_nan=False,
         description="Focal length in pixels: the simulated camera's, and the horizontal field of "
-        "view's (2·atan(width / (2·focal_px)), 57° by default).",
+        "view's (2·atan(width / (2·focal_px)), 57° by default). With intrinsics and no focal_px, "
+        "the intrinsics' (fx + fy) / 2.",
     )
     range: RangeModel = Field(
         default=PowerRange(model="power", a=PAPER_POWER_A, b=PAPER_POWER_B),
-        description="Range model: {model: power, a, b} (default: the paper's eq. 19, a = 58958, "
-        "b = -0.9434) or {model: pinhole, focal_px}.",
+        description="Range model: {model: power, a, b} or {model: pinhole, focal_px}. Without "
+        "it: the pinhole law of the intrinsics' focal length if there are intrinsics, else in the "
+        "simulator the simulated camera's own law (what `marknav calibrate --sim` measures), else "
+        "the paper's eq. 19 (a = 58958, b = -0.9434).",
     )
+    intrinsics: CameraIntrinsics | None = Field(
+        default=None,
+        description="Camera matrix and lens distortion from `marknav calibrate-camera`: "
+        "detections are undistorted before their range and offset are estimated.",
+    )
+    learn_range: bool = Field(
+        default=True,
+        description="Learn the range law while driving (odometry measures how far the robot "
+        "drove toward a mark that stands still); the learnt law is in the report.",
+    )
+
+    @model_validator(mode="before")
+    @classmethod
+    def _focal_from_intrinsics(cls, data: Any) -> Any:
+        if isinstance(data, dict) and "focal_px" not in data:
+            intr = data.get("intrinsics")
+            if isinstance(intr, dict):
+                fx, fy = intr.get("fx"), intr.get("fy")
+                if (isinstance(fx, (int, float)) and isinstance(fy, (int, float))
+                        and fx > 0 and fy > 0):
+                    return {**data, "focal_px": 0.5 * (float(fx) + float(fy))}
+        return data
 
     @field_validator("range", mode="wrap")
     @classmethod
@@ -285,6 +336,20 @@ class Camera(BaseModel):
                 "640 × 480",
                 (field,), getattr(self, field),
             )])
+        return self
+
+    @model_validator(mode="after")
+    def _principal_point_in_image(self) -> Camera:
+        i = self.intrinsics
+        if i is not None:
+            problems = [
+                _problem("principal_point", f"{name} {value:g} lies outside the image (0..{size}): "
+                         "were the intrinsics calibrated at another resolution?",
+                         ("intrinsics", name), value)
+                for name, value, size in (("cx", i.cx, self.width), ("cy", i.cy, self.height))
+                if value >= size
+            ]
+            _raise("Camera", problems)
         return self
 
     @property

@@ -37,7 +37,7 @@ import functools
 import math
 from collections import deque
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import cv2
@@ -46,10 +46,14 @@ import numpy.typing as npt
 
 from marknav.clock import Clock
 from marknav.planning.kinematics import Pose
+from marknav.sim.camera_model import SIM_FOCAL_PX, SIM_HEIGHT, SIM_WIDTH, sim_range_law
+from marknav.sim.lens import LensWarp, lens_warp
 from marknav.sim.scenery import draw_poles, near_hues, paint_distractors, paint_room, poles
 from marknav.sim.world import Background, ClutterItem, Conditions, World, clutter_items
+from marknav.vision.estimate import PowerLaw
 from marknav.vision.palette import ColourRange
 from marknav.vision.sources import Frame, Image
+from marknav.vision.undistort import Intrinsics
 
 __all__ = [
     "AA_EDGE_BIAS_PX",
@@ -79,9 +83,9 @@ class CameraConfig:
     """A pinhole camera. ``principal`` defaults to the image centre; ``forward_offset_mm`` moves
     the camera ahead of the robot's centre along the heading; ``near_mm`` is the near plane."""
 
-    width: int = 640
-    height: int = 480
-    focal_px: float = 590.0
+    width: int = SIM_WIDTH
+    height: int = SIM_HEIGHT
+    focal_px: float = SIM_FOCAL_PX
     principal: tuple[float, float] | None = None
     forward_offset_mm: float = 0.0
     near_mm: float = 10.0
@@ -393,7 +397,19 @@ class Renderer:
         self, world: World, palette: Sequence[ColourRange], config: CameraConfig = CameraConfig()
     ) -> None:
         self.world = world
+        # A lens (world.conditions.lens): the ideal image is drawn on a larger canvas and warped.
+        lens = world.conditions.lens
+        self._warp: LensWarp | None = None
+        canvas = config
+        if not lens.ideal:
+            self._warp = lens_warp(config.width, config.height, config.focal_px, lens,
+                                   (config.cx, config.cy))
+            intr = self._warp.intrinsics
+            config = replace(config, principal=(intr.cx, intr.cy))
+            cw, ch = self._warp.canvas_size
+            canvas = replace(config, width=cw, height=ch, principal=self._warp.canvas_principal)
         self.config = config
+        self._canvas = canvas
         by_name = {c.name: c for c in palette}
         gains = np.array(world.conditions.channel_gains_bgr())
         self._colours: list[tuple[float, float, float]] = []
@@ -407,7 +423,7 @@ class Renderer:
             self._colours.append((float(bgr[0]), float(bgr[1]), float(bgr[2])))
         self._geometry = _MarkGeometry(world)
         cond = world.conditions
-        pan = _panorama(world.background, cond.channel_gains_bgr(), config, _room(cond),
+        pan = _panorama(world.background, cond.channel_gains_bgr(), canvas, _room(cond),
                         tuple(near_hues([(c.hue_lo, c.hue_hi) for c in palette])))
         self._wp = pan.shape[1]
         self._poles = poles(world.background.seed, cond.occluders, self._wp, config.focal_px)
@@ -416,7 +432,7 @@ class Renderer:
         # the blur needs exists around the image.
         self._k = math.ceil(3.0 * self._blur) if self._blur > 0 else 0
         self._margin = self._k + 2
-        pad, w = self._margin, config.width
+        pad, w = self._margin, canvas.width
         columns = np.arange(-pad, self._wp + w + pad) % self._wp  # wraps even if w > Wp
         self._pan: Image = np.ascontiguousarray(pan[:, columns])
         # With blur, the background is blurred once here and only the marks' surroundings are
@@ -437,15 +453,24 @@ class Renderer:
         """The marks in view from ``pose``, far to near."""
         return self._geometry.project(pose, self.config)
 
+    @property
+    def intrinsics(self) -> Intrinsics:
+        """The camera matrix and lens distortion the frames are rendered with."""
+        cfg = self.config
+        dist = self.world.conditions.lens.dist if self._warp is not None else ()
+        return Intrinsics(fx=cfg.focal_px, fy=cfg.focal_px, cx=cfg.cx, cy=cfg.cy,
+                          dist=dist if any(dist) else ())
+
     def _column(self, pose: Pose) -> int:
-        """Column of the padded panorama where the image's column 0 starts."""
-        c0 = round(-pose.theta * self._wp / (2.0 * math.pi) - self.config.cx) % self._wp
+        """Column of the padded panorama where the canvas's column 0 starts."""
+        c0 = round(-pose.theta * self._wp / (2.0 * math.pi) - self._canvas.cx) % self._wp
         return int(c0) + self._margin
 
     def background(self, pose: Pose) -> Image:
-        """The background seen from ``pose`` (a view into the panorama: do not modify)."""
+        """The background seen from ``pose`` (without lens distortion: a view into the
+        panorama, the canvas's size; do not modify)."""
         c0 = self._column(pose)
-        return self._pan_blurred[:, c0:c0 + self.config.width]
+        return self._pan_blurred[:, c0:c0 + self._canvas.width]
 
     def _draw(self, img: Image, marks: list[ProjectedMark], du: float, dv: float) -> None:
         for pm in marks:
@@ -457,7 +482,7 @@ class Renderer:
 
     def render(self, pose: Pose, rng: np.random.Generator | None = None) -> Image:
         """One BGR frame from ``pose``. ``rng`` picks the noise; ``None`` renders noise-free."""
-        cfg = self.config
+        cfg = self._canvas
         h, w = cfg.height, cfg.width
         img = np.empty((h, w, 3), dtype=np.uint8)
         c0 = self._column(pose)
@@ -483,6 +508,9 @@ class Renderer:
             img[v0:v1 + 1, u0:u1 + 1] = roi[v0 - sv0:v1 - sv0 + 1, k:k + u1 - u0 + 1]
         if self._poles:
             draw_poles(img, self._poles, c0 - self._margin, self._wp)
+        if self._warp is not None:
+            img = self._warp.apply(img)
+            h, w = self.config.height, self.config.width
         if self._noise is not None and rng is not None:
             pos, neg = self._noise
             oy = int(rng.integers(0, h + 1))
@@ -548,6 +576,16 @@ class SimCamera:
     @property
     def config(self) -> CameraConfig:
         return self.renderer.config
+
+    @property
+    def intrinsics(self) -> Intrinsics:
+        """The simulated camera's exact intrinsics (as if calibrated)."""
+        return self.renderer.intrinsics
+
+    def range_law(self, mark_radius_mm: float) -> PowerLaw:
+        """The simulated camera's own range law (:func:`marknav.sim.camera_model.sim_range_law`)."""
+        a, b = sim_range_law(self.config.focal_px, mark_radius_mm)
+        return PowerLaw(a=a, b=b)
 
     def read(self) -> Frame | None:
         if self._closed:

@@ -41,6 +41,7 @@ from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, field_validator,
 
 from marknav.errors import InputError, InputErrors
 from marknav.planning.kinematics import Pose, wrap_angle
+from marknav.sim.lens import Lens, random_lens
 from marknav.sim.scenery import random_room
 from marknav.vision.palette import ColourRange
 from marknav.yamlio import Position, load_yaml_file, parse_model
@@ -241,6 +242,8 @@ class Conditions(_Strict):
       ``floor_saturation``; ``wall`` (``plain`` or ``photo``); ``wall_hue`` (a hue that dominates
       the scene, or none); ``occluders`` (thin poles in front of the marks); ``distractors``
       (round objects of near-mark colours on the horizon, off the course).
+    - ``lens``: the camera's distortion and principal point (default a pinhole; randomised
+      worlds draw a webcam's, :func:`marknav.sim.lens.random_lens`).
     """
 
     lighting_gain: _Gain = 1.0
@@ -256,6 +259,8 @@ class Conditions(_Strict):
     wall_hue: Annotated[float, Field(ge=0.0, lt=180.0, allow_inf_nan=False)] | None = None
     occluders: Annotated[int, Field(ge=0, le=20)] = 0
     distractors: Annotated[int, Field(ge=0, le=40)] = 0
+    #: The camera's lens (distortion, principal point): :class:`marknav.sim.lens.Lens`.
+    lens: Lens = Lens()
 
     @field_validator("cast", mode="before")
     @classmethod
@@ -447,6 +452,9 @@ def generate_world(
     elif randomised:
         cond = random_conditions(rng)
         cond = cond.model_copy(update=random_room(int(seed)))  # harder rooms, own stream
+        # The lens from its own stream, so the other draws stay what they were.
+        cond = cond.model_copy(update={"lens": random_lens(np.random.default_rng([int(seed),
+                                                                                0x1E45]))})
     elif conditions == "default":
         cond = Conditions()
     else:

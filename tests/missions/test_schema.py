@@ -10,6 +10,7 @@ import pytest
 
 from marknav.errors import InputError
 from marknav.missions.schema import Mission, PinholeRange, PowerRange, load_mission
+from marknav.sim.camera_model import SIM_RANGE_A, SIM_RANGE_B
 from marknav.vision.palette import ColourRange
 
 MISSIONS = Path(__file__).resolve().parents[2] / "missions"
@@ -73,7 +74,7 @@ def test_slalom_is_the_briefs_mission() -> None:
     assert (m.robot.wheel_base_mm, m.robot.max_speed_mm_s) == (235, 300)
     assert (m.camera.width, m.camera.height) == (640, 480)
     # The simulator's own calibration (marknav calibrate --sim), not the paper's camera.
-    assert m.camera.range == PowerRange(model="power", a=59385, b=-1.0013)
+    assert m.camera.range == PowerRange(model="power", a=SIM_RANGE_A, b=SIM_RANGE_B)
     nav = m.navigation
     assert (nav.bypass_distance_mm, nav.clearance_mm, nav.approach_speed_mm_s) == (800, 300, 250)
     assert (nav.lost_after_s, nav.search.turn_speed_deg_s, nav.search.timeout_s) == (0.5, 40, 15)

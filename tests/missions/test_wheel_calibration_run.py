@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from marknav.missions.run import RunRequest, execute, load
+from marknav.sim.lens import Lens
 
 SLALOM = Path(__file__).resolve().parents[2] / "missions" / "slalom.yaml"
 
@@ -20,7 +21,9 @@ SLALOM = Path(__file__).resolve().parents[2] / "missions" / "slalom.yaml"
 def _run(calibrate: bool) -> tuple[str, int, float, float]:
     mission = load(str(SLALOM))
     mission = mission.model_copy(update={
-        "robot": mission.robot.model_copy(update={"calibrate_wheels": calibrate})})
+        "robot": mission.robot.model_copy(update={"calibrate_wheels": calibrate}),
+        # the wheels alone: the range law is the simulator's, not learnt
+        "camera": mission.camera.model_copy(update={"learn_range": False})})
     result = execute(RunRequest(mission=mission, seed=0, generate_world=True, randomise=True))
     env = result.environment
     conditions = env.world.conditions  # type: ignore[attr-defined]
@@ -30,7 +33,11 @@ def _run(calibrate: bool) -> tuple[str, int, float, float]:
 
 
 @pytest.mark.parametrize("calibrate", [True, False])
-def test_calibrated_odometry_passes_where_raw_odometry_collides(calibrate: bool) -> None:
+def test_calibrated_odometry_passes_where_raw_odometry_collides(
+        calibrate: bool, monkeypatch: pytest.MonkeyPatch) -> None:
+    # The wheels alone: a pinhole lens (randomised worlds also draw a webcam lens, which
+    # changes what seed 0's run sees and hides the raw-odometry failure this test is about).
+    monkeypatch.setattr("marknav.sim.world.random_lens", lambda rng: Lens())
     outcome, collisions, scale, true_ratio = _run(calibrate)
     assert true_ratio == pytest.approx(0.957, abs=0.001)
     if calibrate:
