@@ -99,4 +99,9 @@ def check_world(mission: Mission) -> list[InputError]:
             reported.add(colour)
             errors.append(mission.input_error(
                 ("route", i), f"no {colour} mark in the world {world_path}"))
+    if not errors:
+        try:
+            module.check_course(world, mission.route, str(world_path))
+        except InputErrors as exc:
+            errors.extend(exc.errors)
     return errors

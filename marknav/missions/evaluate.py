@@ -106,27 +106,50 @@ def percentile(values: Sequence[float], q: float) -> float | None:
 
 @dataclass(frozen=True)
 class WaypointTruth:
-    """A waypoint of one run: what the tree said and what the ground truth shows."""
+    """A waypoint of one run: what the tree said and what the ground truth shows.
+
+    ``truth`` is the verdict of :mod:`marknav.sim.truth` from the true path alone ("passed",
+    "wrong_side", "skipped", "out_of_order", "off_course"); ``None`` when unknown (no truth was
+    recorded), which never counts as passed.
+    """
 
     colour: str
     side: str
     outcome: str  # "passed" | "failed" | "pending"
     passed_on: str | None
     min_clearance_mm: float | None
+    truth: str | None = None
+    mark_index: int | None = None
+    detail: str = ""
+
+    @property
+    def confirmed(self) -> bool:
+        """The ground truth confirms the mark was passed, in order, on its side."""
+        return self.truth == "passed"
 
     @property
     def wrong_side(self) -> bool:
-        return self.passed_on is not None and self.passed_on != self.side
+        return self.truth == "wrong_side"
 
     @property
     def unverified(self) -> bool:
-        """The tree declared it passed but the ground truth shows no pass."""
-        return self.outcome == "passed" and self.passed_on is None
+        """The tree declared it passed but the ground truth does not confirm it."""
+        return self.outcome == "passed" and not self.confirmed
+
+    def describe(self) -> str:
+        """What the truth says of a waypoint it does not confirm."""
+        what = "no ground truth" if self.truth is None else self.truth.replace("_", " ")
+        mark = f", mark {self.mark_index}" if self.mark_index is not None else ""
+        return f"({self.colour}{mark}) {what}" + (f": {self.detail}" if self.detail else "")
 
 
 @dataclass(frozen=True)
 class SeedResult:
-    """One evaluation run, reduced to what the statistics need (small enough to pickle)."""
+    """One evaluation run, reduced to what the statistics need (small enough to pickle).
+
+    ``mission`` is the job's mission spec (a path, or "random" for a generated mission), so a
+    failure's replay command reproduces it.
+    """
 
     seed: int
     outcome: str  # "success" | "failed" | "aborted" | "error"
@@ -137,38 +160,66 @@ class SeedResult:
     waypoints: tuple[WaypointTruth, ...]
     ticks: int = 0
     overruns: int = 0
+    mission: str = ""
 
     @classmethod
-    def from_report(cls, seed: int, report: RunReport) -> SeedResult:
+    def from_report(cls, seed: int, report: RunReport, mission: str = "") -> SeedResult:
         return cls(
             seed=seed, outcome=report.outcome, reason=report.reason,
             sim_time_s=report.sim_time_s, wall_time_s=report.wall_time_s,
             collisions=report.collisions,
-            waypoints=tuple(WaypointTruth(w.colour, w.side, w.outcome, w.passed_on,
-                                          w.min_clearance_mm) for w in report.waypoints),
-            ticks=report.ticks, overruns=report.overruns,
+            waypoints=tuple(WaypointTruth(
+                w.colour, w.side, w.outcome, w.passed_on, w.min_clearance_mm, w.truth,
+                w.mark["index"] if w.mark else None, w.truth_detail) for w in report.waypoints),
+            ticks=report.ticks, overruns=report.overruns, mission=mission,
         )
 
     @property
     def success(self) -> bool:
-        """The tree completed the route and the ground truth agrees: every mark passed, each on
-        its colour's side. (Collisions and thin clearances are counted apart.)"""
-        return self.outcome == SUCCESS and not self.wrong_side and not self.unverified
+        """The tree completed the route and the ground truth agrees: every course mark passed,
+        in order, on its side (an unknown truth is not a pass). Collisions and thin clearances
+        are counted apart."""
+        return (self.outcome == SUCCESS and len(self.waypoints) > 0
+                and all(w.confirmed for w in self.waypoints))
 
     @property
     def failure_reason(self) -> str:
         """Why the run is not a success: the tree's reason, or what the ground truth denies."""
         if self.outcome != SUCCESS:
             return self.reason
-        denied = [f"waypoint {i} ({w.colour}) "
-                  + (f"passed on its {w.passed_on}, not its {w.side}" if w.wrong_side
-                     else "declared passed but never passed")
-                  for i, w in enumerate(self.waypoints, start=1) if w.wrong_side or w.unverified]
-        return "the tree completed the route, but the ground truth says: " + "; ".join(denied)
+        denied = [f"waypoint {i} {w.describe()}"
+                  for i, w in enumerate(self.waypoints, start=1) if not w.confirmed]
+        return ("the tree completed the route, but the ground truth says: "
+                + ("; ".join(denied) or "no waypoints"))
+
+    def _reached(self) -> int:
+        """Waypoints the run got to: up to the last one the tree declared passed or the truth
+        found passed in some way (later ones were never reached, not skipped)."""
+        last = 0
+        for i, w in enumerate(self.waypoints, start=1):
+            if w.outcome == "passed" or (w.truth is not None and w.truth != "skipped"):
+                last = i
+        return last
+
+    def _count(self, verdict: str) -> int:
+        return sum(1 for w in self.waypoints[:self._reached()] if w.truth == verdict)
 
     @property
     def wrong_side(self) -> int:
-        return sum(1 for w in self.waypoints if w.wrong_side)
+        return self._count("wrong_side")
+
+    @property
+    def skipped(self) -> int:
+        """Course marks the robot went beyond without passing them."""
+        return self._count("skipped")
+
+    @property
+    def out_of_order(self) -> int:
+        return self._count("out_of_order")
+
+    @property
+    def off_course(self) -> int:
+        return self._count("off_course")
 
     @property
     def unverified(self) -> int:
@@ -184,11 +235,15 @@ class SeedResult:
         return {
             "seed": self.seed, "outcome": self.outcome, "reason": self.reason,
             "sim_time_s": round(self.sim_time_s, 3), "wall_time_s": round(self.wall_time_s, 3),
+            "mission": self.mission,
             "collisions": self.collisions, "wrong_side": self.wrong_side,
+            "skipped": self.skipped, "out_of_order": self.out_of_order,
+            "off_course": self.off_course,
             "waypoints_passed": sum(1 for w in self.waypoints if w.outcome == "passed"),
             "min_clearance_mm": round(min(clear), 1) if clear else None,
             "waypoints": [{"colour": w.colour, "side": w.side, "outcome": w.outcome,
-                           "passed_on": w.passed_on, "min_clearance_mm": w.min_clearance_mm}
+                           "passed_on": w.passed_on, "min_clearance_mm": w.min_clearance_mm,
+                           "truth": w.truth, "mark": w.mark_index}
                           for w in self.waypoints],
         }
 
@@ -271,6 +326,9 @@ class Evaluation:
     collisions: int = 0
     runs_with_collisions: int = 0
     wrong_side: int = 0
+    skipped: int = 0
+    out_of_order: int = 0
+    off_course: int = 0
     unverified_passes: int = 0
     min_clearance_mm: float | None = None
     clearance_p05_mm: float | None = None
@@ -310,6 +368,9 @@ class Evaluation:
             "collisions": self.collisions,
             "runs_with_collisions": self.runs_with_collisions,
             "wrong_side": self.wrong_side,
+            "skipped": self.skipped,
+            "out_of_order": self.out_of_order,
+            "off_course": self.off_course,
             "unverified_passes": self.unverified_passes,
             "min_clearance_mm": r(self.min_clearance_mm),
             "clearance_p05_mm": r(self.clearance_p05_mm),
@@ -332,12 +393,12 @@ def _incident(result: SeedResult, target_mm: float) -> list[str]:
     problems = []
     if result.collisions:
         problems.append(f"{result.collisions} collision{'s' if result.collisions != 1 else ''}")
+    reached = result._reached()
     for i, w in enumerate(result.waypoints, start=1):
-        if w.wrong_side:
-            problems.append(f"waypoint {i} ({w.colour}) passed on its {w.passed_on}, "
-                            f"not its {w.side}")
-        if w.unverified:
-            problems.append(f"waypoint {i} ({w.colour}) declared passed but never passed")
+        if i <= reached and w.truth is not None and not w.confirmed:
+            problems.append(f"waypoint {i} {w.describe()}")
+        elif w.unverified:
+            problems.append(f"waypoint {i} {w.describe()}")
         if (w.outcome == "passed" and w.min_clearance_mm is not None
                 and w.min_clearance_mm < target_mm):
             problems.append(f"waypoint {i} ({w.colour}) clearance {w.min_clearance_mm:.0f} mm "
@@ -371,6 +432,9 @@ def summarise(
     ev.collisions = sum(s.collisions for s in ordered)
     ev.runs_with_collisions = sum(1 for s in ordered if s.collisions)
     ev.wrong_side = sum(s.wrong_side for s in ordered)
+    ev.skipped = sum(s.skipped for s in ordered)
+    ev.out_of_order = sum(s.out_of_order for s in ordered)
+    ev.off_course = sum(s.off_course for s in ordered)
     ev.unverified_passes = sum(s.unverified for s in ordered)
     clearances = [c for s in ordered for c in s.clearances()]
     ev.min_clearance_mm = min(clearances) if clearances else None
@@ -469,8 +533,11 @@ def format_evaluation(ev: Evaluation) -> str:
         f"  collisions   {ev.collisions} (in {ev.runs_with_collisions} run"
         f"{'s' if ev.runs_with_collisions != 1 else ''})",
         f"  wrong side   {ev.wrong_side} mark{'s' if ev.wrong_side != 1 else ''} passed on the "
-        f"wrong side" + (f"; {ev.unverified_passes} declared passed but never passed"
+        f"wrong side" + (f"; {ev.unverified_passes} declared passed but not confirmed"
                          if ev.unverified_passes else ""),
+        f"  skipped      {ev.skipped} course mark{'s' if ev.skipped != 1 else ''} never passed; "
+        f"{ev.out_of_order} out of order; {ev.off_course} off-course mark"
+        f"{'s' if ev.off_course != 1 else ''} passed instead",
     ]
     if ev.min_clearance_mm is None:
         lines.append("  clearance    no waypoint passed")

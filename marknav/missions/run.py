@@ -20,7 +20,7 @@ from marknav.behaviours import keys
 from marknav.behaviours.route import build_route_tree, failure_reason
 from marknav.errors import InputError
 from marknav.missions.registry import BuildContext, build_tree, default_registry
-from marknav.missions.report import ABORTED, EventLog, RunReport, WaypointResult
+from marknav.missions.report import ABORTED, FAILED, SUCCESS, EventLog, RunReport, WaypointResult
 from marknav.missions.runner import Environment, RunOptions, run_tree
 from marknav.missions.schema import Mission, load_mission
 
@@ -76,6 +76,7 @@ def _world_for(mission: Mission, req: RunRequest, seed: int) -> Any:
     if path is not None:
         world = worldmod.load_world(path)
         worldmod.check_against_palette(world, mission.palette(), path)
+        worldmod.check_course(world, mission.route, path)
     else:
         world = worldmod.generate_world(
             mission.route, seed=seed, clearance_mm=mission.navigation.clearance_mm,
@@ -223,15 +224,32 @@ def _classify(root: py_trees.behaviour.Behaviour) -> tuple[bool, str]:
 
 
 def _fill_ground_truth(mission: Mission, env: Environment, report: RunReport) -> None:
+    """The simulator's verdict, from the true path alone: per waypoint the course mark and its
+    truth, the path itself, and — a run is a success only if the truth says so — a route the
+    tree completed but the truth denies becomes a failure with the truth's reason."""
     from marknav.sim.environment import SimEnvironment, waypoint_truth
+    from marknav.sim.truth import PASSED, truth_path
 
     if not isinstance(env, SimEnvironment):
         return
-    truth = waypoint_truth(env.truth, env.world, list(mission.route), pass_times(mission))
-    for wp, (side, clearance, _idx) in zip(report.waypoints, truth, strict=True):
-        wp.passed_on = side
-        wp.min_clearance_mm = clearance
+    route = list(mission.route)
+    truth = waypoint_truth(env.truth, env.world, route, [mission.side_of(c) for c in route])
+    for wp, mt in zip(report.waypoints, truth, strict=True):
+        wp.passed_on = mt.passed_on
+        wp.min_clearance_mm = mt.min_clearance_mm
+        wp.mark = mt.mark_dict()
+        wp.truth = mt.truth
+        wp.truth_detail = mt.detail
+    report.truth_path = truth_path(env.truth.t, env.truth.xy)
     report.collisions = len(env.truth.collisions)
+    denied = [f"waypoint {i} ({wp.colour}, mark {mt.mark_index}) {mt.truth.replace('_', ' ')}"
+              + (f": {mt.detail}" if mt.detail else "")
+              for i, (wp, mt) in enumerate(zip(report.waypoints, truth, strict=True), start=1)
+              if mt.truth != PASSED]
+    if report.outcome == SUCCESS and denied:
+        report.outcome = FAILED
+        report.reason = ("the tree completed the route, but the ground truth says: "
+                         + "; ".join(denied))
     report.sim_final = {
         "wheels_mm_s": [env.create.wheel_speeds.left, env.create.wheel_speeds.right],
         "oi_mode": env.create.mode.name.lower(),

@@ -64,6 +64,7 @@ __all__ = [
     "World",
     "bumps",
     "check_against_palette",
+    "check_course",
     "clutter_items",
     "contacts",
     "generate_world",
@@ -288,10 +289,14 @@ class World(_Strict):
     boxes: tuple[Box, ...] = ()
     conditions: Conditions = Conditions()
     background: Background = Background()
+    #: The course: the mark (index into ``marks``) each waypoint must pass, in route order; a mark
+    #: may appear more than once. ``None``: the marks in file order, one per waypoint.
+    course: tuple[Annotated[int, Field(ge=0)], ...] | None = None
 
     # Where each mark's colour sits in the source file (for check_against_palette).
     _source: str | None = PrivateAttr(default=None)
     _colour_positions: dict[int, Position] = PrivateAttr(default_factory=dict)
+    _course_position: Position | None = PrivateAttr(default=None)
 
     @field_validator("marks")
     @classmethod
@@ -308,10 +313,25 @@ class World(_Strict):
                     )
         return marks
 
+    @model_validator(mode="after")
+    def _course_in_range(self) -> World:
+        for k, i in enumerate(self.course or ()):
+            if i >= len(self.marks):
+                raise ValueError(f"course[{k}] is mark {i}, but the world has {len(self.marks)} "
+                                 f"marks (indices 0..{len(self.marks) - 1})")
+        return self
+
     @property
     def source(self) -> str | None:
         """The file this world was loaded from, if any."""
         return self._source
+
+    def course_for(self, waypoints: int) -> list[int]:
+        """The mark index of each of ``waypoints`` waypoints: the world's ``course``, or by
+        default the first ``waypoints`` marks in file order (:func:`check_course` validates)."""
+        if self.course is not None:
+            return list(self.course)
+        return list(range(min(waypoints, len(self.marks))))
 
     def with_mark_radius(self, radius_mm: float) -> World:
         """A copy where marks without their own ``radius_mm`` get ``radius_mm`` (the mission's)."""
@@ -322,6 +342,7 @@ class World(_Strict):
         out = World.model_validate({**self._fields_dict(), "marks": marks})
         out._source = self._source
         out._colour_positions = dict(self._colour_positions)
+        out._course_position = self._course_position
         return out
 
     def with_conditions(self, conditions: Conditions) -> World:
@@ -344,7 +365,49 @@ def load_world(path: str | Path) -> World:
         pos = doc.positions.get(("marks", i, "colour"))
         if pos is not None:
             world._colour_positions[i] = pos
+    world._course_position = doc.positions.get(("course",)) or doc.positions.get(("marks",))
     return world
+
+
+def check_course(world: World, route: Sequence[str], file: str | Path | None = None) -> None:
+    """Raise :class:`InputError` if the world's course does not fit the route: one mark per
+    waypoint, each of the waypoint's colour (errors name the file and the ``course`` line — the
+    ``marks`` line when the world has no ``course`` — or the mark's line for a colour)."""
+    where = str(file) if file is not None else world.source
+    pos = world._course_position
+    errors: list[InputError] = []
+    if world.course is None:
+        if len(world.marks) < len(route):
+            errors.append(InputError(
+                f"the route has {len(route)} waypoints but the world only {len(world.marks)} "
+                f"marks: say which mark each waypoint passes with course: [i, ...] (mark "
+                f"indices, repeats allowed)", file=where, line=pos.line if pos else None,
+                column=pos.column if pos else None, field="course"))
+    elif len(world.course) != len(route):
+        errors.append(InputError(
+            f"{len(world.course)} entries for a route of {len(route)} waypoints (one mark index "
+            f"per waypoint)", file=where, line=pos.line if pos else None,
+            column=pos.column if pos else None, field="course"))
+    if not errors:
+        course = world.course_for(len(route))
+        for w, (colour, i) in enumerate(zip(route, course, strict=True)):
+            mark = world.marks[i]
+            if mark.colour == colour:
+                continue
+            if world.course is None:
+                mpos = world._colour_positions.get(i)
+                line, column, fld = (mpos.line if mpos else None, mpos.column if mpos else None,
+                                     f"marks[{i}].colour")
+                hint = " (the default course is the marks in file order; or give course:)"
+            else:
+                line, column, fld = (pos.line if pos else None, pos.column if pos else None,
+                                     f"course[{w}]")
+                hint = ""
+            errors.append(InputError(
+                f"waypoint {w + 1} of the route is {colour!r} but its mark {i} is "
+                f"{mark.colour!r}{hint}", file=where, line=line, column=column, field=fld))
+    if errors:
+        raise InputErrors(errors)
 
 
 def check_against_palette(
@@ -519,6 +582,7 @@ def generate_world(
         robot=robot,
         conditions=cond,
         background=Background(seed=int(seed), clutter=clutter),
+        course=tuple(range(len(marks))),
     )
 
 
