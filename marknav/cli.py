@@ -27,6 +27,7 @@ COMMANDS: tuple[str, ...] = (
     "marknav.missions.cmd_validate",
     "marknav.missions.cmd_tree",
     "marknav.missions.cmd_evaluate",
+    "marknav.missions.cmd_random_mission",
     "marknav.benchmarks",
     "marknav.vision.cmd_detect",
     "marknav.vision.cmd_calibrate",

@@ -70,6 +70,8 @@ Z95 = 1.959963984540054
 CLEARANCE_TOLERANCE_MM = 50.0
 #: Outcome of a run that raised instead of finishing (a bug, counted as a failure).
 ERROR = "error"
+#: The mission spec of an evaluation over generated missions (one drawn per seed).
+RANDOM = "random"
 
 
 # --------------------------------------------------------------------------------- statistics
@@ -161,9 +163,11 @@ class SeedResult:
     ticks: int = 0
     overruns: int = 0
     mission: str = ""
+    clearance_mm: float | None = None  # the mission's navigation.clearance_mm
 
     @classmethod
-    def from_report(cls, seed: int, report: RunReport, mission: str = "") -> SeedResult:
+    def from_report(cls, seed: int, report: RunReport, mission: str = "",
+                    clearance_mm: float | None = None) -> SeedResult:
         return cls(
             seed=seed, outcome=report.outcome, reason=report.reason,
             sim_time_s=report.sim_time_s, wall_time_s=report.wall_time_s,
@@ -172,6 +176,7 @@ class SeedResult:
                 w.colour, w.side, w.outcome, w.passed_on, w.min_clearance_mm, w.truth,
                 w.mark["index"] if w.mark else None, w.truth_detail) for w in report.waypoints),
             ticks=report.ticks, overruns=report.overruns, mission=mission,
+            clearance_mm=clearance_mm,
         )
 
     @property
@@ -265,7 +270,10 @@ def _quiet_runs() -> Iterator[None]:
 
 
 def run_seed(mission_path: str, seed: int, max_time_s: float | None = None) -> SeedResult:
-    """One evaluation run: load the mission, run it on the generated randomised world of ``seed``.
+    """One evaluation run — the job (mission spec, seed): load the mission and run it on the
+    generated randomised world of ``seed``; or, for the spec ``"random"``, draw the mission and
+    its world from ``seed`` (:func:`marknav.missions.random_mission.random_mission`, here in the
+    worker, so the job stays two small values).
 
     A run that raises (a bug, not a mission failure) becomes outcome ``"error"`` with the
     exception as its reason; bad input (:class:`InputError`) and Ctrl-C propagate.
@@ -273,21 +281,36 @@ def run_seed(mission_path: str, seed: int, max_time_s: float | None = None) -> S
     from marknav.missions.run import RunRequest, execute
     from marknav.missions.schema import load_mission
 
-    mission = load_mission(mission_path)
-    req = RunRequest(mission=mission, seed=seed, generate_world=True, randomise=True,
-                     max_time_s=max_time_s)
     wall0 = time.perf_counter()
     try:
+        if mission_path == RANDOM:
+            from marknav.missions.random_mission import random_mission
+
+            drawn = random_mission(seed)
+            mission = drawn.mission
+            req = RunRequest(mission=mission, seed=seed, world_model=drawn.world,
+                             max_time_s=max_time_s)
+        else:
+            mission = load_mission(mission_path)
+            req = RunRequest(mission=mission, seed=seed, generate_world=True, randomise=True,
+                             max_time_s=max_time_s)
         with _quiet_runs():
             report = execute(req).report
     except InputError:
-        raise
+        if mission_path != RANDOM:
+            raise
+        log.error("random mission %d is invalid:\n%s", seed, traceback.format_exc())
+        return SeedResult(seed=seed, outcome=ERROR, reason="invalid random mission: "
+                          f"{traceback.format_exc(limit=1).strip().splitlines()[-1]}",
+                          sim_time_s=0.0, wall_time_s=time.perf_counter() - wall0,
+                          collisions=0, waypoints=(), mission=mission_path)
     except Exception as exc:  # one broken run must not end the evaluation
         log.error("seed %d crashed:\n%s", seed, traceback.format_exc())
         return SeedResult(seed=seed, outcome=ERROR, reason=f"crashed: {type(exc).__name__}: "
                           f"{exc}", sim_time_s=0.0, wall_time_s=time.perf_counter() - wall0,
-                          collisions=0, waypoints=())
-    return SeedResult.from_report(seed, report)
+                          collisions=0, waypoints=(), mission=mission_path)
+    return SeedResult.from_report(seed, report, mission=mission_path,
+                                  clearance_mm=mission.navigation.clearance_mm)
 
 
 def _init_worker(level: int) -> None:
@@ -299,6 +322,10 @@ def _init_worker(level: int) -> None:
 
 def replay_command(mission_path: str, seed: int, max_time_s: float | None = None) -> str:
     """The ``marknav run`` command that replays evaluation run ``seed`` exactly."""
+    if mission_path == RANDOM:
+        from marknav.missions.random_mission import replay_command as random_replay
+
+        return random_replay(seed, max_time_s)
     cmd = f"marknav run {shlex.quote(mission_path)} --world random --seed {seed}"
     if max_time_s is not None:
         cmd += f" --max-time {max_time_s:g}"
@@ -388,6 +415,11 @@ class Evaluation:
         }
 
 
+def _target_of(result: SeedResult, clearance_mm: float) -> float:
+    own = result.clearance_mm if result.clearance_mm is not None else clearance_mm
+    return own - CLEARANCE_TOLERANCE_MM
+
+
 def _incident(result: SeedResult, target_mm: float) -> list[str]:
     """What went wrong in a run besides (or despite) its outcome."""
     problems = []
@@ -439,7 +471,9 @@ def summarise(
     clearances = [c for s in ordered for c in s.clearances()]
     ev.min_clearance_mm = min(clearances) if clearances else None
     ev.clearance_p05_mm = percentile(clearances, 5.0)
-    ev.clearance_below_target = sum(1 for c in clearances if c < ev.clearance_target_mm)
+    # Each run against its own mission's clearance (random missions draw one per run).
+    ev.clearance_below_target = sum(
+        1 for s in ordered for c in s.clearances() if c < _target_of(s, clearance_mm))
     sim_times = [s.sim_time_s for s in ordered]
     if sim_times:
         ev.sim_time_median_s = float(np.median(sim_times))
@@ -447,7 +481,7 @@ def summarise(
         ev.wall_time_mean_s = float(np.mean([s.wall_time_s for s in ordered]))
     ev.failures = [s for s in ordered if not s.success]
     for s in ordered:
-        problems = _incident(s, ev.clearance_target_mm)
+        problems = _incident(s, _target_of(s, clearance_mm))
         if problems:
             ev.incidents.append((s, problems))
     return ev
@@ -485,7 +519,11 @@ def evaluate(
     if not 0.0 <= min_success <= 1.0:
         raise InputError(f"must be between 0 and 1, got {min_success}", field="--min-success")
     path = str(mission_path)
-    mission = load_mission(path)  # bad input fails here, before any worker starts
+    if path == RANDOM:
+        name, clearance = "random missions", 0.0
+    else:
+        mission = load_mission(path)  # bad input fails here, before any worker starts
+        name, clearance = mission.name, mission.navigation.clearance_mm
     seeds = list(range(seed, seed + runs))
     results: list[SeedResult] = []
     wall0 = time.perf_counter()
@@ -515,8 +553,8 @@ def evaluate(
             pool.shutdown(wait=False, cancel_futures=True)
             raise
         pool.shutdown(wait=True)
-    return summarise(results, mission=mission.name, mission_path=path,
-                     clearance_mm=mission.navigation.clearance_mm, min_success=min_success,
+    return summarise(results, mission=name, mission_path=path,
+                     clearance_mm=clearance, min_success=min_success,
                      max_time_s=max_time_s, jobs=workers,
                      wall_total_s=time.perf_counter() - wall0)
 
@@ -526,8 +564,9 @@ def format_evaluation(ev: Evaluation) -> str:
     lo, hi = ev.success_ci95
     first, last = ev.seeds
     lines = [
-        f"{ev.mission}: {ev.runs} simulated run{'s' if ev.runs != 1 else ''} on randomised "
-        f"worlds (seeds {first}–{last}, {ev.jobs} job{'s' if ev.jobs != 1 else ''})",
+        f"{ev.mission}: {ev.runs} simulated run{'s' if ev.runs != 1 else ''} on "
+        + ("generated missions and " if ev.mission_path == RANDOM else "")
+        + f"randomised worlds (seeds {first}–{last}, {ev.jobs} job{'s' if ev.jobs != 1 else ''})",
         f"  success      {ev.successes}/{ev.runs} = {ev.success_rate:.1%}  "
         f"(95 % CI {lo:.1%}–{hi:.1%}, Wilson)",
         f"  collisions   {ev.collisions} (in {ev.runs_with_collisions} run"
@@ -545,8 +584,10 @@ def format_evaluation(ev: Evaluation) -> str:
         assert ev.clearance_p05_mm is not None
         lines.append(
             f"  clearance    min {ev.min_clearance_mm:.0f} mm, 5th percentile "
-            f"{ev.clearance_p05_mm:.0f} mm (target ≥ {ev.clearance_target_mm:.0f} mm = "
-            f"clearance_mm − {CLEARANCE_TOLERANCE_MM:.0f}; {ev.clearance_below_target} below)")
+            f"{ev.clearance_p05_mm:.0f} mm (target ≥ "
+            + ("each mission's " if ev.mission_path == RANDOM
+               else f"{ev.clearance_target_mm:.0f} mm = ")
+            + f"clearance_mm − {CLEARANCE_TOLERANCE_MM:.0f}; {ev.clearance_below_target} below)")
     speed = ""
     if ev.wall_time_mean_s > 0:
         mean_sim = float(np.mean([s.sim_time_s for s in ev.results]))

@@ -45,6 +45,7 @@ class RunRequest:
     max_time_s: float | None = None
     randomise: bool = False  # generated worlds: random conditions and mark yaw (evaluation)
     generate_world: bool = False  # ignore the mission's sim.world: generate one from the seed
+    world_model: Any = None  # a World built in memory (a random mission's): used as it is
 
 
 @dataclass
@@ -69,6 +70,11 @@ def build_mission_tree(mission: Mission) -> py_trees.behaviour.Behaviour:
 def _world_for(mission: Mission, req: RunRequest, seed: int) -> Any:
     from marknav.sim import world as worldmod
 
+    if req.world_model is not None:
+        world = req.world_model
+        worldmod.check_against_palette(world, mission.palette())
+        worldmod.check_course(world, mission.route)
+        return world.with_mark_radius(mission.marks.radius_mm)
     path = None if req.generate_world else req.world
     if (path is None and not req.generate_world and mission.sim is not None
             and mission.sim.world is not None):
