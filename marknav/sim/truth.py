@@ -23,7 +23,7 @@ Definitions (issue 11):
 - Verdicts, in this order:
   ``skipped`` — no crossing of the mark after the previous pass, and none before it either;
   ``out_of_order`` — crossed only before the previous waypoint's pass, or only after the next
-  course mark was crossed;
+  course mark was crossed (for these two, only crossings within :data:`ORDER_RADIUS_MM` count);
   ``off_course`` — another mark of the same colour (not this waypoint's mark) was passed closer
   than this one within the window: the robot went round the wrong mark;
   ``wrong_side`` — the side at closest approach is not the waypoint's side;
@@ -55,6 +55,10 @@ __all__ = [
 #: Path points closer together than this (mm of travel) are merged (turning on the spot is not
 #: travel).
 RESAMPLE_MM = 20.0
+#: Evidence of passing marks out of order counts only from crossings this near (mm): turning
+#: toward the next mark, the robot can sweep a mark two metres away from ahead to behind
+#: without going past it. (The side and the pass of a waypoint's own mark: any distance.)
+ORDER_RADIUS_MM = 1200.0
 #: Rate of the report's ``truth_path`` (the brief asks for at least 5 Hz).
 TRUTH_PATH_HZ = 10.0
 
@@ -177,13 +181,15 @@ def course_truth(
         after = [c for c in crossings(mi) if c.t > t_prev]
         if not after:
             passes.append(None)
-            before = [c for c in crossings(mi) if t_prev_prev <= c.t <= t_prev]
+            before = [c for c in crossings(mi)
+                      if t_prev_prev <= c.t <= t_prev and c.lateral_mm <= ORDER_RADIUS_MM]
             order.append("before" if before and w > 0 else "skipped")
             continue
         first = after[0].t
         late = False
         if w + 1 < len(marks) and marks[w + 1] != mi:
-            nxt = [c for c in crossings(marks[w + 1]) if t_prev < c.t < first]
+            nxt = [c for c in crossings(marks[w + 1])
+                   if t_prev < c.t < first and c.lateral_mm <= ORDER_RADIUS_MM]
             late = bool(nxt)
         passes.append(first)
         order.append("late" if late else "ok")
