@@ -838,7 +838,8 @@ def pass_crossings(
 
     A pass is the path crossing the line through the mark perpendicular to the direction of
     travel (the mark going from ahead to behind), by a segment within ``within_mm`` of the mark
-    (farther crossings are not a pass). After a pass, the next one counts only once the mark has
+    (farther crossings are not a pass) — or at a corner of the path (a turn on the spot), when
+    the mark is ahead along the way in and behind along the way out. After a pass, the next one counts only once the mark has
     been back within ``REARM_BEARING_DEG`` of the direction of travel.
     """
     p = _xy(trajectory)
@@ -846,6 +847,7 @@ def pass_crossings(
     rearm = math.cos(math.radians(REARM_BEARING_DEG))
     armed = True
     out: list[Crossing] = []
+    prev_d: npt.NDArray[np.float64] | None = None
     for k in range(len(p) - 1):
         d = p[k + 1] - p[k]
         dd = float(d @ d)
@@ -853,10 +855,22 @@ def pass_crossings(
             continue
         to_mark = m - p[k]
         dist = float(np.hypot(*to_mark))
-        if dist > 0 and float(to_mark @ d) / (dist * math.sqrt(dd)) >= rearm:
-            armed = True
         s0 = float((p[k] - m) @ d)
         s1 = float((p[k + 1] - m) @ d)
+        if armed and prev_d is not None and float(to_mark @ prev_d) > 0.0 and s0 > 0.0:
+            # A corner (the robot turned on the spot there): the mark was ahead along the way in
+            # and is behind along the way out, so it was passed at the corner.
+            u = prev_d / math.sqrt(float(prev_d @ prev_d)) + d / math.sqrt(dd)
+            nu = float(np.hypot(*u))
+            if nu > 1e-9:
+                u = u / nu
+                lateral = float(u[0] * to_mark[1] - u[1] * to_mark[0])
+                if abs(lateral) <= within_mm:
+                    out.append(Crossing(index=k, fraction=0.0, lateral_mm=lateral))
+                    armed = False
+        prev_d = d
+        if dist > 0 and float(to_mark @ d) / (dist * math.sqrt(dd)) >= rearm:
+            armed = True
         if not (armed and s0 < 0.0 <= s1):
             continue
         t = -s0 / dd
