@@ -13,8 +13,9 @@ Definitions (issue 11):
   wobble never counts as passing anything.
 - **A crossing** of a mark is the path crossing the line through the mark perpendicular to the
   direction of travel, the mark going from ahead to behind (:func:`marknav.sim.world.
-  pass_crossings`), at any lateral distance: passing a mark 950 mm away on its wrong side is a
-  wrong-side pass, not "no pass".
+  pass_crossings`), at any lateral distance up to :data:`PASS_RADIUS_MM` (2 m): passing a mark
+  950 mm away on its wrong side is a wrong-side pass, not "no pass"; a mark never come within
+  2 m of was not passed at all.
 - **Waypoint i's pass** is the first crossing of its course mark after waypoint i−1's pass (the
   start for the first). Its **window** runs from waypoint i−1's pass to waypoint i+1's pass
   (exclusive; the end of the path for the last). Its **side** is the side of the crossing with the
@@ -55,6 +56,10 @@ __all__ = [
 #: Path points closer together than this (mm of travel) are merged (turning on the spot is not
 #: travel).
 RESAMPLE_MM = 20.0
+#: A crossing this far (mm) or nearer is a pass, on one side or the other: far beyond any
+#: clearance (so a mark left 950 mm away on the wrong side is a wrong-side pass), near enough that
+#: a mark metres away, swept from ahead to behind while the robot circles elsewhere, is not.
+PASS_RADIUS_MM = 2000.0
 #: Evidence of passing marks out of order counts only from crossings this near (mm): turning
 #: toward the next mark, the robot can sweep a mark two metres away from ahead to behind
 #: without going past it. (The side and the pass of a waypoint's own mark: any distance.)
@@ -130,7 +135,7 @@ class _Cross:
 def _crossings(ts: npt.NDArray[np.float64], p: npt.NDArray[np.float64],
                mark_xy: tuple[float, float]) -> list[_Cross]:
     out = []
-    for c in worldmod.pass_crossings(p, mark_xy, within_mm=math.inf):
+    for c in worldmod.pass_crossings(p, mark_xy, within_mm=PASS_RADIUS_MM):
         t = float(ts[c.index] + c.fraction * (ts[c.index + 1] - ts[c.index]))
         out.append(_Cross(t, abs(c.lateral_mm), c.side))
     return out
