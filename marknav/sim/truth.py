@@ -24,7 +24,8 @@ Definitions (issue 11):
 - Verdicts, in this order:
   ``skipped`` — no crossing of the mark after the previous pass, and none before it either;
   ``out_of_order`` — crossed only before the previous waypoint's pass, or only after the next
-  course mark was crossed (for these two, only crossings within :data:`ORDER_RADIUS_MM` count);
+  course mark was crossed (for these two, only crossings within :data:`ORDER_RADIUS_MM` count,
+  and not the next mark's when it is also the previous one: going round the mark just passed);
   ``off_course`` — another mark of the same colour (not this waypoint's mark) was passed closer
   than this one within the window: the robot went round the wrong mark;
   ``wrong_side`` — the side at closest approach is not the waypoint's side;
@@ -192,7 +193,9 @@ def course_truth(
             continue
         first = after[0].t
         late = False
-        if w + 1 < len(marks) and marks[w + 1] != mi:
+        # (Not when the next mark is also the previous one — a figure-eight: going round the
+        # mark just passed, on the way to this one, is not passing the next waypoint early.)
+        if w + 1 < len(marks) and marks[w + 1] != mi and (w == 0 or marks[w + 1] != marks[w - 1]):
             nxt = [c for c in crossings(marks[w + 1])
                    if t_prev < c.t < first and c.lateral_mm <= ORDER_RADIUS_MM]
             late = bool(nxt)
