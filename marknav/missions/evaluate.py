@@ -427,9 +427,7 @@ def _incident(result: SeedResult, target_mm: float) -> list[str]:
         problems.append(f"{result.collisions} collision{'s' if result.collisions != 1 else ''}")
     reached = result._reached()
     for i, w in enumerate(result.waypoints, start=1):
-        if i <= reached and w.truth is not None and not w.confirmed:
-            problems.append(f"waypoint {i} {w.describe()}")
-        elif w.unverified:
+        if (i <= reached and w.truth is not None and not w.confirmed) or w.unverified:
             problems.append(f"waypoint {i} {w.describe()}")
         if (w.outcome == "passed" and w.min_clearance_mm is not None
                 and w.min_clearance_mm < target_mm):

@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import yaml
@@ -38,6 +38,8 @@ from marknav.yamlio import load_yaml_text
 
 __all__ = ["PALETTE", "RANDOM", "RandomMission", "random_mission", "replay_command",
            "write_random_mission"]
+
+Side = Literal["left", "right"]
 
 #: The mission spec that means "draw a mission per run".
 RANDOM = "random"
@@ -86,11 +88,11 @@ class RandomMission:
     range_kind: str  # "sim-fit" | "pinhole" | "fit×1.17" ...
 
 
-def _route(rng: np.random.Generator) -> tuple[list[str], dict[str, str]]:
+def _route(rng: np.random.Generator) -> tuple[list[str], dict[str, Side]]:
     names = list(PALETTE)
     k = int(rng.integers(COLOURS_RANGE[0], COLOURS_RANGE[1] + 1))
     colours = [names[i] for i in sorted(rng.choice(len(names), size=k, replace=False))]
-    sides = {c: ("left" if rng.random() < 0.5 else "right") for c in colours}
+    sides: dict[str, Side] = {c: ("left" if rng.random() < 0.5 else "right") for c in colours}
     if len(set(sides.values())) == 1:  # mixed sides
         sides[colours[int(rng.integers(k))]] = "right" if sides[colours[0]] == "left" else "left"
     n = int(rng.integers(ROUTE_LENGTH_RANGE[0], ROUTE_LENGTH_RANGE[1] + 1))

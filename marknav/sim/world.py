@@ -839,8 +839,9 @@ def pass_crossings(
     A pass is the path crossing the line through the mark perpendicular to the direction of
     travel (the mark going from ahead to behind), by a segment within ``within_mm`` of the mark
     (farther crossings are not a pass) — or at a corner of the path (a turn on the spot), when
-    the mark is ahead along the way in and behind along the way out. After a pass, the next one counts only once the mark has
-    been back within ``REARM_BEARING_DEG`` of the direction of travel.
+    the mark is ahead along the way in and behind along the way out. After a pass, the next one
+    counts only once the mark has been back within ``REARM_BEARING_DEG`` of the direction of
+    travel.
     """
     p = _xy(trajectory)
     m = np.asarray(mark_xy, dtype=float)

@@ -3,7 +3,9 @@ built to show one way a route can go wrong, and what the verdict must then be.""
 
 from __future__ import annotations
 
+import itertools
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,7 +19,7 @@ def polyline(*points: tuple[float, float], step_mm: float = 10.0,
              speed_mm_s: float = 200.0) -> tuple[np.ndarray, np.ndarray]:
     """Times and positions along straight legs through ``points`` at a steady speed."""
     xy: list[np.ndarray] = []
-    for a, b in zip(points[:-1], points[1:], strict=True):
+    for a, b in itertools.pairwise(points):
         n = max(2, int(math.dist(a, b) / step_mm))
         seg = np.linspace(a, b, n, endpoint=False)
         xy.append(seg)
@@ -129,7 +131,7 @@ def test_turning_on_the_spot_passes_nothing() -> None:
     p = np.column_stack([5.0 * np.cos(a), 5.0 * np.sin(a)])
     (out,) = course_truth(np.linspace(0.0, 30.0, 600), p, w, ["red"], ["left"])
     assert out.truth == "skipped"
-    t, q = resample_path(np.linspace(0.0, 30.0, 600), p)
+    _, q = resample_path(np.linspace(0.0, 30.0, 600), p)
     assert len(q) <= 2
 
 
@@ -144,11 +146,11 @@ def test_truth_path_rate_and_recheck() -> None:
     assert verdicts(ts, xy, w, ["red"], ["left"]) == verdicts(t, p, w, ["red"], ["left"])
 
 
-def test_course_defaults_and_checks(tmp_path: "pytest.TempPathFactory") -> None:
+def test_course_defaults_and_checks(tmp_path: Path) -> None:
     w = world(("red", 0, 1500), ("green", 0, 3000))
     assert w.course_for(2) == [0, 1]
     check_course(w, ["red", "green"])
-    f = tmp_path / "w.yaml"  # type: ignore[operator]
+    f = tmp_path / "w.yaml"
     f.write_text("marks:\n  - {colour: red, x_mm: 0, y_mm: 1500}\n"
                  "  - {colour: green, x_mm: 0, y_mm: 3000}\ncourse: [0, 1, 1]\n")
     loaded = load_world(f)
@@ -160,6 +162,6 @@ def test_course_defaults_and_checks(tmp_path: "pytest.TempPathFactory") -> None:
         check_course(loaded, ["red", "green"])
     assert "3 entries for a route of 2" in str(exc.value.errors[0])
     with pytest.raises(InputErrors) as exc:
-        check_course(load_world(f.__class__(str(f))), ["red"] * 3)
+        check_course(load_world(f), ["red"] * 3)
     with pytest.raises(ValueError, match="course\\[0\\] is mark 5"):
         world(("red", 0, 1500), course=(5,))
