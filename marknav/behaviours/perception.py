@@ -138,8 +138,7 @@ class PerceptionBase(MarknavBehaviour):
             passed = excluded_passes(self.read(keys.PASSED, ()), self.mission)
             where = None
             if target.remembered and not target.locked:
-                at = obs.pose if obs.pose is not None else self.robot.pose()
-                where = (at.x, at.y)
+                where = obs.pose if obs.pose is not None else self.robot.pose()
             sighting = associate(obs.marks, target, passed, where)
             if sighting is not None:
                 self.write(keys.TARGET, with_sighting(target, sighting))

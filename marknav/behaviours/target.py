@@ -25,7 +25,6 @@ route).
 
 from __future__ import annotations
 
-import logging
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import replace
@@ -36,8 +35,6 @@ from py_trees.common import Status
 from marknav.behaviours import keys
 from marknav.behaviours.base import MarknavBehaviour, SetupError, check_positive, pick
 from marknav.planning.kinematics import Pose
-
-log = logging.getLogger(__name__)
 
 if TYPE_CHECKING:
     from marknav.missions.schema import Mission
@@ -73,12 +70,8 @@ MEMORY_MIN_SEEN = 3
 MEMORY_MAX_MISSES = 3
 #: A remembered target is recognised within this many association gates of its position...
 REMEMBERED_GATE_FACTOR = 2.5
-#: ... at a range within this fraction of the distance to its remembered position,
-REMEMBERED_RANGE_TOLERANCE = 0.35
-#: ... or within this angle of its remembered direction, at a range within these factors of it
-#: (the range law may be off by a quarter; the direction is what a camera measures well).
-REMEMBERED_BEARING_DEG = 8.0
-REMEMBERED_RATIO_RANGE = (0.7, 1.4)
+#: ... once its remembered position is within this angle of the heading (degrees).
+REMEMBERED_CENTRE_DEG = 8.0
 
 
 def gate_mm(range_mm: float) -> float:
@@ -195,47 +188,30 @@ def nearest_of_colour(
     return min(candidates, key=lambda m: m.range_mm, default=None)
 
 
-def _fits_remembered(m: keys.SeenMark, target_xy: tuple[float, float],
-                     pose_xy: tuple[float, float], d: float, widen: float) -> bool:
-    """Whether sighting ``m`` can be the remembered target at ``target_xy`` seen from
-    ``pose_xy``: within the widened gate at a range near the expected one (not a farther mark of
-    the colour that happens to lie within the gate), or — the remembered range may be off by the
-    range law's error — in the remembered direction at a range within a factor of it."""
-    expected = math.hypot(target_xy[0] - pose_xy[0], target_xy[1] - pose_xy[1])
-    if expected <= 0.0:
-        return d <= widen * gate_mm(m.range_mm)
-    ratio = m.range_mm / expected
-    a_target = math.atan2(target_xy[1] - pose_xy[1], target_xy[0] - pose_xy[0])
-    a_seen = math.atan2(m.world_y - pose_xy[1], m.world_x - pose_xy[0])
-    off = abs(math.remainder(a_seen - a_target, math.tau))
-    log.debug("remembered %s: d %.0f, range %.0f vs %.0f, %.1f° off", m.colour, d, m.range_mm,
-              expected, math.degrees(off))
-    if d <= widen * gate_mm(m.range_mm) and \
-            abs(m.range_mm - expected) <= max(GATE_MIN_MM, REMEMBERED_RANGE_TOLERANCE * expected):
-        return True
-    return (REMEMBERED_RATIO_RANGE[0] <= ratio <= REMEMBERED_RATIO_RANGE[1]
-            and off <= math.radians(REMEMBERED_BEARING_DEG))
-
-
 def associate(
     marks: Sequence[keys.SeenMark],
     target: keys.Target,
     passed: Iterable[keys.PassedWaypoint] = (),
-    pose_xy: tuple[float, float] | None = None,
+    pose: Pose | None = None,
 ) -> keys.SeenMark | None:
     """The sighting of ``target`` among ``marks`` (one frame), or ``None`` if it is not there.
 
     Unlocked: the nearest not-yet-passed mark of the target's colour. Locked (bypass started):
     the mark of that colour nearest to the target's world estimate, if within the gate.
     Remembered (chosen from the memory, out of view): the same by position, within
-    :data:`REMEMBERED_GATE_FACTOR` gates, passed marks excluded; with the robot's position
-    ``pose_xy``, also checked against the range it should be seen at, or found in the
-    remembered direction (:func:`_fits_remembered`).
+    :data:`REMEMBERED_GATE_FACTOR` gates, passed marks excluded; with the robot's ``pose``,
+    only once the remembered position is within :data:`REMEMBERED_CENTRE_DEG` of the heading:
+    a search turning toward it sees every mark near it before choosing the nearest to it, not
+    the first of its colour to enter the view (which may be the next mark down the course).
     """
     done = tuple(passed)
     if not (target.locked or target.remembered) or target.world is None:
         return nearest_of_colour(marks, target.colour, done)
     tx, ty = target.world
+    if target.remembered and not target.locked and pose is not None:
+        off = math.remainder(math.atan2(ty - pose.y, tx - pose.x) - pose.theta, math.tau)
+        if abs(off) > math.radians(REMEMBERED_CENTRE_DEG):
+            return None
     # A remembered position was estimated from farther away (up to MEMORY_RANGE_MM) and odometry
     # has drifted since: a wider gate.
     widen = REMEMBERED_GATE_FACTOR if target.remembered and not target.locked else 1.0
@@ -245,11 +221,7 @@ def associate(
         if m.colour != target.colour or (widen > 1.0 and is_passed_mark(m, done)):
             continue
         d = math.hypot(m.world_x - tx, m.world_y - ty)
-        if widen > 1.0 and pose_xy is not None:
-            fits = _fits_remembered(m, (tx, ty), pose_xy, d, widen)
-        else:
-            fits = d <= widen * gate_mm(m.range_mm)
-        if fits and d < best_d:
+        if d <= widen * gate_mm(m.range_mm) and d < best_d:
             best, best_d = m, d
     return best
 
