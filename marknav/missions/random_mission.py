@@ -10,8 +10,9 @@ Per seed (deterministic: the same seed gives the same mission and world, on any 
 - mark radius 60–100 mm; clearance 250–450 mm (at least the robot radius + mark radius +
   :data:`MIN_GAP_MM`, or the robot would touch the mark); bypass distance 700–1200 mm; approach
   speed 150–300 mm/s;
-- a range model: the simulator's own fit (power law), the pinhole model, or the fit with its
-  scale off by up to ±25 % (a range law that over- or under-estimates every distance);
+- a range model: the simulator's own fit (power law, of 100 mm marks, rescaled to the mission's
+  mark radius), the pinhole model, or that fit with its scale off by up to ±25 % (a range law
+  that over- or under-estimates every distance by that much);
 - the world: :func:`marknav.sim.world.generate_world` for that route with randomised conditions
   (its course: the marks in route order), plus 0–3 off-course marks of route colours beside the
   course, placed where they are never nearer than a course mark of their colour from where the
@@ -64,6 +65,7 @@ BYPASS_RANGE_MM = (700.0, 1200.0)
 APPROACH_SPEED_RANGE_MM_S = (150.0, 300.0)
 #: The simulator's own fit of the default camera (``marknav calibrate --sim``; slalom.yaml).
 SIM_FIT = (59385.0, -1.0013)
+SIM_FIT_RADIUS_MM = 100.0
 FOCAL_PX = 590.0
 RANGE_SCALE_ERROR = 0.25
 OFF_COURSE_RANGE = (0, 3)
@@ -109,14 +111,17 @@ def _route(rng: np.random.Generator) -> tuple[list[str], dict[str, Side]]:
     return route, sides
 
 
-def _range_model(rng: np.random.Generator) -> tuple[dict[str, Any], str]:
+def _range_model(rng: np.random.Generator, radius_mm: float) -> tuple[dict[str, Any], str]:
+    """The fit is of 100 mm marks: for marks of ``radius_mm`` (r ∝ R/d) its scale becomes
+    a·(100/R)^b, as a fit of those marks would be."""
     kind = int(rng.integers(3))
+    a, b = SIM_FIT[0] * (SIM_FIT_RADIUS_MM / radius_mm) ** SIM_FIT[1], SIM_FIT[1]
     if kind == 0:
-        return {"model": "power", "a": SIM_FIT[0], "b": SIM_FIT[1]}, "sim-fit"
+        return {"model": "power", "a": round(a, 1), "b": b}, "sim-fit"
     if kind == 1:
         return {"model": "pinhole", "focal_px": FOCAL_PX}, "pinhole"
     scale = round(float(rng.uniform(1.0 - RANGE_SCALE_ERROR, 1.0 + RANGE_SCALE_ERROR)), 3)
-    return {"model": "power", "a": round(SIM_FIT[0] * scale, 1), "b": SIM_FIT[1]}, f"fit×{scale:g}"
+    return {"model": "power", "a": round(a * scale, 1), "b": b}, f"fit×{scale:g}"
 
 
 def _off_course(rng: np.random.Generator, world: worldmod.World, route: list[str],
@@ -160,7 +165,7 @@ def random_mission(seed: int) -> RandomMission:
                           ROBOT_RADIUS_MM + radius + MIN_GAP_MM), 1)
     bypass = round(float(rng.uniform(*BYPASS_RANGE_MM)), 1)
     approach = round(float(rng.uniform(*APPROACH_SPEED_RANGE_MM_S)), 1)
-    range_spec, range_kind = _range_model(rng)
+    range_spec, range_kind = _range_model(rng, radius)
     colours = {c: {"hue": list(PALETTE[c][0]), "side": sides[c], "sat_min": PALETTE[c][1]}
                for c in dict.fromkeys(route)}
     mission_doc: dict[str, Any] = {
