@@ -297,6 +297,7 @@ class World(_Strict):
     _source: str | None = PrivateAttr(default=None)
     _colour_positions: dict[int, Position] = PrivateAttr(default_factory=dict)
     _course_position: Position | None = PrivateAttr(default=None)
+    _course_item_positions: dict[int, Position] = PrivateAttr(default_factory=dict)
 
     @field_validator("marks")
     @classmethod
@@ -343,6 +344,7 @@ class World(_Strict):
         out._source = self._source
         out._colour_positions = dict(self._colour_positions)
         out._course_position = self._course_position
+        out._course_item_positions = dict(self._course_item_positions)
         return out
 
     def with_conditions(self, conditions: Conditions) -> World:
@@ -366,6 +368,10 @@ def load_world(path: str | Path) -> World:
         if pos is not None:
             world._colour_positions[i] = pos
     world._course_position = doc.positions.get(("course",)) or doc.positions.get(("marks",))
+    for k in range(len(world.course or ())):
+        item = doc.positions.get(("course", k))
+        if item is not None:
+            world._course_item_positions[k] = item
     return world
 
 
@@ -400,7 +406,8 @@ def check_course(world: World, route: Sequence[str], file: str | Path | None = N
                                      f"marks[{i}].colour")
                 hint = " (the default course is the marks in file order; or give course:)"
             else:
-                line, column, fld = (pos.line if pos else None, pos.column if pos else None,
+                ipos = world._course_item_positions.get(w, pos)
+                line, column, fld = (ipos.line if ipos else None, ipos.column if ipos else None,
                                      f"course[{w}]")
                 hint = ""
             errors.append(InputError(
