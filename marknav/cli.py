@@ -29,6 +29,7 @@ COMMANDS: tuple[str, ...] = (
     "marknav.missions.cmd_evaluate",
     "marknav.missions.cmd_replay",
     "marknav.missions.cmd_tune",
+    "marknav.missions.cmd_random_mission",
     "marknav.benchmarks",
     "marknav.vision.cmd_detect",
     "marknav.vision.cmd_calibrate",

@@ -164,7 +164,10 @@ class PerceptionBase(MarknavBehaviour):
         sighting = None
         if target is not None:
             passed = excluded_passes(self.read(keys.PASSED, ()), self.mission)
-            sighting = associate(obs.marks, target, passed)
+            where = None
+            if target.remembered and not target.locked:
+                where = obs.pose if obs.pose is not None else self.robot.pose()
+            sighting = associate(obs.marks, target, passed, where)
             if sighting is not None:
                 self.write(keys.TARGET, with_sighting(target, sighting))
         shown = obs.marks[:FEEDBACK_MARKS]  # nearest first (the detector's and the fake's order)

@@ -15,17 +15,25 @@ Which way to turn:
 The turn rate is ``navigation.search.turn_speed_deg_s`` (wheels ∓ω·b/2, eq. 27). SUCCESS as soon as
 the target is seen after the search started; FAILURE after ``navigation.search.timeout_s`` or a
 full turn (360° of heading change, summed from odometry), whichever comes first.
+
+A *remembered* target (chosen from the mark memory, out of view) is recognised only near its
+remembered position and range. When a full turn has not found it there, the memory was wrong
+(an estimate from far away, odometry drift): the remembered mark is forgotten, the target becomes
+an ordinary one — the nearest unpassed mark of its colour in view — and the search starts again,
+once, for another full turn and timeout.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any, ClassVar
 
 from py_trees.common import Status
 
 from marknav.behaviours import keys
 from marknav.behaviours.base import DrivingBehaviour, SetupError, check_positive, pick
+from marknav.behaviours.target import gate_mm
 from marknav.planning.kinematics import Pose, to_robot_frame, wrap_angle
 
 __all__ = ["SearchWhenLost", "search_direction"]
@@ -62,7 +70,8 @@ class SearchWhenLost(DrivingBehaviour):
     Setup: ``robot``, ``clock``, ``mission`` (wheel base and the defaults above).
     """
 
-    READS: ClassVar[tuple[str, ...]] = (keys.TARGET, keys.PASSED)
+    READS: ClassVar[tuple[str, ...]] = (keys.TARGET, keys.PASSED, keys.KNOWN)
+    WRITES: ClassVar[tuple[str, ...]] = (keys.DRIVER, keys.TARGET, keys.KNOWN)
 
     def __init__(
         self,
@@ -81,6 +90,7 @@ class SearchWhenLost(DrivingBehaviour):
         self._t0 = 0.0
         self._last_theta = 0.0
         self.turned_rad = 0.0
+        self.forgot_memory = False
 
     def configure(self, **kwargs: Any) -> None:
         m = self.mission
@@ -98,6 +108,7 @@ class SearchWhenLost(DrivingBehaviour):
         pose = self.robot.pose()
         self._last_theta = pose.theta
         self.turned_rad = 0.0
+        self.forgot_memory = False
         target = self.target()
         passed: tuple[keys.PassedWaypoint, ...] = self.read(keys.PASSED, ())
         previous = passed[-1] if passed else None
@@ -119,6 +130,12 @@ class SearchWhenLost(DrivingBehaviour):
         theta = self.robot.pose().theta
         self.turned_rad += abs(wrap_angle(theta - self._last_theta))
         self._last_theta = theta
+        if self.turned_rad >= math.tau and target.remembered and not target.locked \
+                and not self.forgot_memory:
+            self._forget(target)
+            self.feedback_message = (f"{target.label} not where remembered: looking for the "
+                                     f"nearest {target.colour} instead")
+            return Status.RUNNING
         if self.turned_rad >= math.tau:
             return self.fail(f"{target.label} not found in a full turn ({elapsed:.1f} s)")
         if elapsed >= self.timeout_s:
@@ -132,3 +149,17 @@ class SearchWhenLost(DrivingBehaviour):
                                  f"{math.degrees(self.turned_rad):.0f}°, "
                                  f"{elapsed:.1f}/{self.timeout_s:g} s")
         return Status.RUNNING
+
+    def _forget(self, target: keys.Target) -> None:
+        """Drop the remembered mark the target was taken from, make the target an ordinary one
+        and start the turn again."""
+        self.forgot_memory = True
+        if target.world is not None:
+            tx, ty = target.world
+            known: tuple[keys.KnownMark, ...] = self.read(keys.KNOWN, ())
+            self.write(keys.KNOWN, tuple(
+                k for k in known if not (k.colour == target.colour and math.hypot(
+                    k.world_x - tx, k.world_y - ty) <= gate_mm(k.range_mm))))
+        self.write(keys.TARGET, replace(target, remembered=False))
+        self._t0 = self.now()
+        self.turned_rad = 0.0

@@ -68,8 +68,10 @@ MEMORY_PREFERENCE_MM = 500.0
 MEMORY_MIN_SEEN = 3
 #: Forgotten after this many frames that should have seen it and did not.
 MEMORY_MAX_MISSES = 3
-#: A remembered target is recognised within this many association gates of its position.
+#: A remembered target is recognised within this many association gates of its position...
 REMEMBERED_GATE_FACTOR = 2.5
+#: ... once its remembered position is within this angle of the heading (degrees).
+REMEMBERED_CENTRE_DEG = 8.0
 
 
 def gate_mm(range_mm: float) -> float:
@@ -190,18 +192,26 @@ def associate(
     marks: Sequence[keys.SeenMark],
     target: keys.Target,
     passed: Iterable[keys.PassedWaypoint] = (),
+    pose: Pose | None = None,
 ) -> keys.SeenMark | None:
     """The sighting of ``target`` among ``marks`` (one frame), or ``None`` if it is not there.
 
     Unlocked: the nearest not-yet-passed mark of the target's colour. Locked (bypass started):
     the mark of that colour nearest to the target's world estimate, if within the gate.
     Remembered (chosen from the memory, out of view): the same by position, within
-    :data:`REMEMBERED_GATE_FACTOR` gates, passed marks excluded.
+    :data:`REMEMBERED_GATE_FACTOR` gates, passed marks excluded; with the robot's ``pose``,
+    only once the remembered position is within :data:`REMEMBERED_CENTRE_DEG` of the heading:
+    a search turning toward it sees every mark near it before choosing the nearest to it, not
+    the first of its colour to enter the view (which may be the next mark down the course).
     """
     done = tuple(passed)
     if not (target.locked or target.remembered) or target.world is None:
         return nearest_of_colour(marks, target.colour, done)
     tx, ty = target.world
+    if target.remembered and not target.locked and pose is not None:
+        off = math.remainder(math.atan2(ty - pose.y, tx - pose.x) - pose.theta, math.tau)
+        if abs(off) > math.radians(REMEMBERED_CENTRE_DEG):
+            return None
     # A remembered position was estimated from farther away (up to MEMORY_RANGE_MM) and odometry
     # has drifted since: a wider gate.
     widen = REMEMBERED_GATE_FACTOR if target.remembered and not target.locked else 1.0

@@ -177,6 +177,13 @@ def _world_problems(
         if colour not in present and colour not in reported:
             reported.add(colour)
             errors.append(locate(("route", i), f"no {colour} mark in the world {world_path}"))
+    if not errors:  # the world's course: one mark per waypoint, of the waypoint's colour
+        try:
+            worldmod.check_course(loaded, route, str(world_path))
+        except InputErrors as exc:
+            errors.extend(exc.errors)
+        except InputError as exc:
+            errors.append(exc)
     try:
         loaded.with_mark_radius(marks.radius_mm)
     except ValidationError as exc:

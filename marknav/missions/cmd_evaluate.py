@@ -32,6 +32,10 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     )
     p.add_argument("mission", metavar="MISSION", nargs="?",
                    help="mission YAML file (optional with --accuracy)")
+    p.add_argument("--missions", choices=("random",), metavar="random",
+                   help="instead of MISSION: draw a mission and its world per run from the seed "
+                        "(routes of 3-12 marks, 2-5 colours, mixed sides, clearances, bypass "
+                        "distances, speeds and range models varied; off-course marks)")
     p.add_argument("--runs", type=int, metavar="N", help="number of simulated runs")
     p.add_argument("--seed", type=int, default=0, metavar="S", help="first seed (default 0)")
     p.add_argument("--jobs", type=int, default=1, metavar="J",
@@ -142,8 +146,13 @@ def run(args: argparse.Namespace) -> int:
                           ("--grid", args.grid != "paper")):
         if given:
             raise InputError("only applies with --accuracy", field=option)
+    if args.missions is not None:
+        if args.mission is not None:
+            raise InputError("give either a MISSION or --missions random, not both",
+                             field="--missions")
+        args.mission = args.missions
     if args.mission is None:
-        raise InputError("give a MISSION to evaluate (or --accuracy)")
+        raise InputError("give a MISSION to evaluate (or --missions random, or --accuracy)")
     if args.runs is None:
         raise InputError("give the number of runs: --runs N", field="--runs")
     from marknav.missions.evaluate import evaluate, format_evaluation

@@ -143,13 +143,13 @@ def run(args: argparse.Namespace) -> int:
     print(summary(report))
     for i, wp in enumerate(report.waypoints, start=1):
         truth = ""
-        if wp.min_clearance_mm is not None:
-            if wp.passed_on is None:
-                side = "not passed"
-            else:
-                ok = "ok" if wp.passed_on == wp.side else "WRONG SIDE"
-                side = f"passed on its {wp.passed_on} ({ok})"
-            truth = f"; ground truth: {side}, closest {wp.min_clearance_mm:.0f} mm"
+        if wp.truth is not None and wp.mark is not None:
+            side = f"passed on its {wp.passed_on}" if wp.passed_on else "not passed"
+            ok = "ok" if wp.truth == "passed" else wp.truth.replace("_", " ").upper()
+            closest = (f", closest {wp.min_clearance_mm:.0f} mm"
+                       if wp.min_clearance_mm is not None else "")
+            truth = (f"; ground truth (mark {wp.mark['index']} at {wp.mark['x_mm']:g}, "
+                     f"{wp.mark['y_mm']:g}): {side} ({ok}){closest}")
         print(f"  {i}. {wp.colour} (pass on its {wp.side}): {wp.outcome}{truth}")
     law = report.range_law
     if law is not None and law.get("steps"):

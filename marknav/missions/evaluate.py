@@ -69,6 +69,8 @@ Z95 = 1.959963984540054
 CLEARANCE_TOLERANCE_MM = 50.0
 #: Outcome of a run that raised instead of finishing (a bug, counted as a failure).
 ERROR = "error"
+#: The mission spec of an evaluation over generated missions (one drawn per seed).
+RANDOM = "random"
 
 
 # --------------------------------------------------------------------------------- statistics
@@ -105,27 +107,50 @@ def percentile(values: Sequence[float], q: float) -> float | None:
 
 @dataclass(frozen=True)
 class WaypointTruth:
-    """A waypoint of one run: what the tree said and what the ground truth shows."""
+    """A waypoint of one run: what the tree said and what the ground truth shows.
+
+    ``truth`` is the verdict of :mod:`marknav.sim.truth` from the true path alone ("passed",
+    "wrong_side", "skipped", "out_of_order", "off_course"); ``None`` when unknown (no truth was
+    recorded), which never counts as passed.
+    """
 
     colour: str
     side: str
     outcome: str  # "passed" | "failed" | "pending"
     passed_on: str | None
     min_clearance_mm: float | None
+    truth: str | None = None
+    mark_index: int | None = None
+    detail: str = ""
+
+    @property
+    def confirmed(self) -> bool:
+        """The ground truth confirms the mark was passed, in order, on its side."""
+        return self.truth == "passed"
 
     @property
     def wrong_side(self) -> bool:
-        return self.passed_on is not None and self.passed_on != self.side
+        return self.truth == "wrong_side"
 
     @property
     def unverified(self) -> bool:
-        """The tree declared it passed but the ground truth shows no pass."""
-        return self.outcome == "passed" and self.passed_on is None
+        """The tree declared it passed but the ground truth does not confirm it."""
+        return self.outcome == "passed" and not self.confirmed
+
+    def describe(self) -> str:
+        """What the truth says of a waypoint it does not confirm."""
+        what = "no ground truth" if self.truth is None else self.truth.replace("_", " ")
+        mark = f", mark {self.mark_index}" if self.mark_index is not None else ""
+        return f"({self.colour}{mark}) {what}" + (f": {self.detail}" if self.detail else "")
 
 
 @dataclass(frozen=True)
 class SeedResult:
-    """One evaluation run, reduced to what the statistics need (small enough to pickle)."""
+    """One evaluation run, reduced to what the statistics need (small enough to pickle).
+
+    ``mission`` is the job's mission spec (a path, or "random" for a generated mission), so a
+    failure's replay command reproduces it.
+    """
 
     seed: int
     outcome: str  # "success" | "failed" | "aborted" | "error"
@@ -136,38 +161,69 @@ class SeedResult:
     waypoints: tuple[WaypointTruth, ...]
     ticks: int = 0
     overruns: int = 0
+    mission: str = ""
+    clearance_mm: float | None = None  # the mission's navigation.clearance_mm
 
     @classmethod
-    def from_report(cls, seed: int, report: RunReport) -> SeedResult:
+    def from_report(cls, seed: int, report: RunReport, mission: str = "",
+                    clearance_mm: float | None = None) -> SeedResult:
         return cls(
             seed=seed, outcome=report.outcome, reason=report.reason,
             sim_time_s=report.sim_time_s, wall_time_s=report.wall_time_s,
             collisions=report.collisions,
-            waypoints=tuple(WaypointTruth(w.colour, w.side, w.outcome, w.passed_on,
-                                          w.min_clearance_mm) for w in report.waypoints),
-            ticks=report.ticks, overruns=report.overruns,
+            waypoints=tuple(WaypointTruth(
+                w.colour, w.side, w.outcome, w.passed_on, w.min_clearance_mm, w.truth,
+                w.mark["index"] if w.mark else None, w.truth_detail) for w in report.waypoints),
+            ticks=report.ticks, overruns=report.overruns, mission=mission,
+            clearance_mm=clearance_mm,
         )
 
     @property
     def success(self) -> bool:
-        """The tree completed the route and the ground truth agrees: every mark passed, each on
-        its colour's side. (Collisions and thin clearances are counted apart.)"""
-        return self.outcome == SUCCESS and not self.wrong_side and not self.unverified
+        """The tree completed the route and the ground truth agrees: every course mark passed,
+        in order, on its side (an unknown truth is not a pass). Collisions and thin clearances
+        are counted apart."""
+        return (self.outcome == SUCCESS and len(self.waypoints) > 0
+                and all(w.confirmed for w in self.waypoints))
 
     @property
     def failure_reason(self) -> str:
         """Why the run is not a success: the tree's reason, or what the ground truth denies."""
         if self.outcome != SUCCESS:
             return self.reason
-        denied = [f"waypoint {i} ({w.colour}) "
-                  + (f"passed on its {w.passed_on}, not its {w.side}" if w.wrong_side
-                     else "declared passed but never passed")
-                  for i, w in enumerate(self.waypoints, start=1) if w.wrong_side or w.unverified]
-        return "the tree completed the route, but the ground truth says: " + "; ".join(denied)
+        denied = [f"waypoint {i} {w.describe()}"
+                  for i, w in enumerate(self.waypoints, start=1) if not w.confirmed]
+        return ("the tree completed the route, but the ground truth says: "
+                + ("; ".join(denied) or "no waypoints"))
+
+    def _reached(self) -> int:
+        """Waypoints the run got to: up to the last one the tree declared passed or the truth
+        found passed in some way (later ones were never reached, not skipped)."""
+        last = 0
+        for i, w in enumerate(self.waypoints, start=1):
+            if w.outcome == "passed" or (w.truth is not None and w.truth != "skipped"):
+                last = i
+        return last
+
+    def _count(self, verdict: str) -> int:
+        return sum(1 for w in self.waypoints[:self._reached()] if w.truth == verdict)
 
     @property
     def wrong_side(self) -> int:
-        return sum(1 for w in self.waypoints if w.wrong_side)
+        return self._count("wrong_side")
+
+    @property
+    def skipped(self) -> int:
+        """Course marks the robot went beyond without passing them."""
+        return self._count("skipped")
+
+    @property
+    def out_of_order(self) -> int:
+        return self._count("out_of_order")
+
+    @property
+    def off_course(self) -> int:
+        return self._count("off_course")
 
     @property
     def unverified(self) -> int:
@@ -183,11 +239,15 @@ class SeedResult:
         return {
             "seed": self.seed, "outcome": self.outcome, "reason": self.reason,
             "sim_time_s": round(self.sim_time_s, 3), "wall_time_s": round(self.wall_time_s, 3),
+            "mission": self.mission,
             "collisions": self.collisions, "wrong_side": self.wrong_side,
+            "skipped": self.skipped, "out_of_order": self.out_of_order,
+            "off_course": self.off_course,
             "waypoints_passed": sum(1 for w in self.waypoints if w.outcome == "passed"),
             "min_clearance_mm": round(min(clear), 1) if clear else None,
             "waypoints": [{"colour": w.colour, "side": w.side, "outcome": w.outcome,
-                           "passed_on": w.passed_on, "min_clearance_mm": w.min_clearance_mm}
+                           "passed_on": w.passed_on, "min_clearance_mm": w.min_clearance_mm,
+                           "truth": w.truth, "mark": w.mark_index}
                           for w in self.waypoints],
         }
 
@@ -210,7 +270,11 @@ def _quiet_runs() -> Iterator[None]:
 
 def run_seed(mission_path: str, seed: int, max_time_s: float | None = None,
              overrides: Sequence[str] = ()) -> SeedResult:
-    """One evaluation run: load the mission, run it on the generated randomised world of ``seed``.
+    """One evaluation run — the job (mission spec, seed[, --set overrides]): load the mission
+    and run it on the generated randomised world of ``seed``; or, for the spec ``"random"``,
+    draw the mission and its world from ``seed``
+    (:func:`marknav.missions.random_mission.random_mission`, here in the worker, so the job
+    stays small).
 
     A run that raises (a bug, not a mission failure) becomes outcome ``"error"`` with the
     exception as its reason; bad input (:class:`InputError`) and Ctrl-C propagate.
@@ -219,21 +283,36 @@ def run_seed(mission_path: str, seed: int, max_time_s: float | None = None,
     from marknav.missions.run import RunRequest, execute
     from marknav.missions.schema import load_mission
 
-    mission = load_mission(mission_path, overrides=parse_overrides(overrides))  # --set
-    req = RunRequest(mission=mission, seed=seed, generate_world=True, randomise=True,
-                     max_time_s=max_time_s)
     wall0 = time.perf_counter()
     try:
+        if mission_path == RANDOM:
+            from marknav.missions.random_mission import random_mission
+
+            drawn = random_mission(seed)
+            mission = drawn.mission
+            req = RunRequest(mission=mission, seed=seed, world_model=drawn.world,
+                             max_time_s=max_time_s)
+        else:
+            mission = load_mission(mission_path, overrides=parse_overrides(overrides))  # --set
+            req = RunRequest(mission=mission, seed=seed, generate_world=True, randomise=True,
+                             max_time_s=max_time_s)
         with _quiet_runs():
             report = execute(req).report
     except InputError:
-        raise
+        if mission_path != RANDOM:
+            raise
+        log.error("random mission %d is invalid:\n%s", seed, traceback.format_exc())
+        return SeedResult(seed=seed, outcome=ERROR, reason="invalid random mission: "
+                          f"{traceback.format_exc(limit=1).strip().splitlines()[-1]}",
+                          sim_time_s=0.0, wall_time_s=time.perf_counter() - wall0,
+                          collisions=0, waypoints=(), mission=mission_path)
     except Exception as exc:  # one broken run must not end the evaluation
         log.error("seed %d crashed:\n%s", seed, traceback.format_exc())
         return SeedResult(seed=seed, outcome=ERROR, reason=f"crashed: {type(exc).__name__}: "
                           f"{exc}", sim_time_s=0.0, wall_time_s=time.perf_counter() - wall0,
-                          collisions=0, waypoints=())
-    return SeedResult.from_report(seed, report)
+                          collisions=0, waypoints=(), mission=mission_path)
+    return SeedResult.from_report(seed, report, mission=mission_path,
+                                  clearance_mm=mission.navigation.clearance_mm)
 
 
 # ------------------------------------------------------------------------------ many runs
@@ -242,6 +321,10 @@ def run_seed(mission_path: str, seed: int, max_time_s: float | None = None,
 def replay_command(mission_path: str, seed: int, max_time_s: float | None = None,
                    overrides: Sequence[str] = ()) -> str:
     """The ``marknav run`` command that replays evaluation run ``seed`` exactly."""
+    if mission_path == RANDOM:
+        from marknav.missions.random_mission import replay_command as random_replay
+
+        return random_replay(seed, max_time_s)
     cmd = f"marknav run {shlex.quote(mission_path)} --world random --seed {seed}"
     cmd += "".join(f" --set {shlex.quote(o)}" for o in overrides)
     if max_time_s is not None:
@@ -270,6 +353,9 @@ class Evaluation:
     collisions: int = 0
     runs_with_collisions: int = 0
     wrong_side: int = 0
+    skipped: int = 0
+    out_of_order: int = 0
+    off_course: int = 0
     unverified_passes: int = 0
     min_clearance_mm: float | None = None
     clearance_p05_mm: float | None = None
@@ -311,6 +397,9 @@ class Evaluation:
             "collisions": self.collisions,
             "runs_with_collisions": self.runs_with_collisions,
             "wrong_side": self.wrong_side,
+            "skipped": self.skipped,
+            "out_of_order": self.out_of_order,
+            "off_course": self.off_course,
             "unverified_passes": self.unverified_passes,
             "min_clearance_mm": r(self.min_clearance_mm),
             "clearance_p05_mm": r(self.clearance_p05_mm),
@@ -328,17 +417,20 @@ class Evaluation:
         }
 
 
+def _target_of(result: SeedResult, clearance_mm: float) -> float:
+    own = result.clearance_mm if result.clearance_mm is not None else clearance_mm
+    return own - CLEARANCE_TOLERANCE_MM
+
+
 def _incident(result: SeedResult, target_mm: float) -> list[str]:
     """What went wrong in a run besides (or despite) its outcome."""
     problems = []
     if result.collisions:
         problems.append(f"{result.collisions} collision{'s' if result.collisions != 1 else ''}")
+    reached = result._reached()
     for i, w in enumerate(result.waypoints, start=1):
-        if w.wrong_side:
-            problems.append(f"waypoint {i} ({w.colour}) passed on its {w.passed_on}, "
-                            f"not its {w.side}")
-        if w.unverified:
-            problems.append(f"waypoint {i} ({w.colour}) declared passed but never passed")
+        if (i <= reached and w.truth is not None and not w.confirmed) or w.unverified:
+            problems.append(f"waypoint {i} {w.describe()}")
         if (w.outcome == "passed" and w.min_clearance_mm is not None
                 and w.min_clearance_mm < target_mm):
             problems.append(f"waypoint {i} ({w.colour}) clearance {w.min_clearance_mm:.0f} mm "
@@ -372,11 +464,16 @@ def summarise(
     ev.collisions = sum(s.collisions for s in ordered)
     ev.runs_with_collisions = sum(1 for s in ordered if s.collisions)
     ev.wrong_side = sum(s.wrong_side for s in ordered)
+    ev.skipped = sum(s.skipped for s in ordered)
+    ev.out_of_order = sum(s.out_of_order for s in ordered)
+    ev.off_course = sum(s.off_course for s in ordered)
     ev.unverified_passes = sum(s.unverified for s in ordered)
     clearances = [c for s in ordered for c in s.clearances()]
     ev.min_clearance_mm = min(clearances) if clearances else None
     ev.clearance_p05_mm = percentile(clearances, 5.0)
-    ev.clearance_below_target = sum(1 for c in clearances if c < ev.clearance_target_mm)
+    # Each run against its own mission's clearance (random missions draw one per run).
+    ev.clearance_below_target = sum(
+        1 for s in ordered for c in s.clearances() if c < _target_of(s, clearance_mm))
     sim_times = [s.sim_time_s for s in ordered]
     if sim_times:
         ev.sim_time_median_s = float(np.median(sim_times))
@@ -384,7 +481,7 @@ def summarise(
         ev.wall_time_mean_s = float(np.mean([s.wall_time_s for s in ordered]))
     ev.failures = [s for s in ordered if not s.success]
     for s in ordered:
-        problems = _incident(s, ev.clearance_target_mm)
+        problems = _incident(s, _target_of(s, clearance_mm))
         if problems:
             ev.incidents.append((s, problems))
     return ev
@@ -428,8 +525,15 @@ def evaluate(
     path = str(mission_path)
     from marknav.missions.overrides import parse_overrides
 
-    # bad input (and a bad --set) fails here, before any worker starts
-    mission = load_mission(path, overrides=parse_overrides(overrides))
+    if path == RANDOM:
+        if overrides:
+            raise InputError("changes a mission file; random missions are drawn whole from "
+                             "their seed", field="--set")
+        name, clearance = "random missions", 0.0
+    else:
+        # bad input (and a bad --set) fails here, before any worker starts
+        mission = load_mission(path, overrides=parse_overrides(overrides))
+        name, clearance = mission.name, mission.navigation.clearance_mm
     seeds = list(range(seed, seed + runs))
     results: list[SeedResult] = []
     wall0 = time.perf_counter()
@@ -442,11 +546,12 @@ def evaluate(
     # Where the runs execute (this process, a local pool, a Dask cluster): evaluate_backends.
     if progress is not None:
         progress(0, runs, 0)
-    spec = str(Path(path).resolve()) if dask is not None else path  # a cluster's cwd differs
+    resolve = dask is not None and path != RANDOM  # a cluster's cwd differs
+    spec = str(Path(path).resolve()) if resolve else path  # a cluster's cwd differs
     _, workers = run_jobs([(spec, s, tuple(overrides)) for s in seeds], max_time_s=max_time_s,
                           workers=jobs, dask=dask, on_result=done)
-    ev = summarise(results, mission=mission.name, mission_path=path,
-                   clearance_mm=mission.navigation.clearance_mm, min_success=min_success,
+    ev = summarise(results, mission=name, mission_path=path,
+                   clearance_mm=clearance, min_success=min_success,
                    max_time_s=max_time_s, jobs=workers,
                    wall_total_s=time.perf_counter() - wall0)
     ev.overrides = tuple(overrides)
@@ -458,15 +563,19 @@ def format_evaluation(ev: Evaluation) -> str:
     lo, hi = ev.success_ci95
     first, last = ev.seeds
     lines = [
-        f"{ev.mission}: {ev.runs} simulated run{'s' if ev.runs != 1 else ''} on randomised "
-        f"worlds (seeds {first}–{last}, {ev.jobs} job{'s' if ev.jobs != 1 else ''})",
+        f"{ev.mission}: {ev.runs} simulated run{'s' if ev.runs != 1 else ''} on "
+        + ("generated missions and " if ev.mission_path == RANDOM else "")
+        + f"randomised worlds (seeds {first}–{last}, {ev.jobs} job{'s' if ev.jobs != 1 else ''})",
         f"  success      {ev.successes}/{ev.runs} = {ev.success_rate:.1%}  "
         f"(95 % CI {lo:.1%}–{hi:.1%}, Wilson)",
         f"  collisions   {ev.collisions} (in {ev.runs_with_collisions} run"
         f"{'s' if ev.runs_with_collisions != 1 else ''})",
         f"  wrong side   {ev.wrong_side} mark{'s' if ev.wrong_side != 1 else ''} passed on the "
-        f"wrong side" + (f"; {ev.unverified_passes} declared passed but never passed"
+        f"wrong side" + (f"; {ev.unverified_passes} declared passed but not confirmed"
                          if ev.unverified_passes else ""),
+        f"  skipped      {ev.skipped} course mark{'s' if ev.skipped != 1 else ''} never passed; "
+        f"{ev.out_of_order} out of order; {ev.off_course} off-course mark"
+        f"{'s' if ev.off_course != 1 else ''} passed instead",
     ]
     if ev.min_clearance_mm is None:
         lines.append("  clearance    no waypoint passed")
@@ -474,8 +583,10 @@ def format_evaluation(ev: Evaluation) -> str:
         assert ev.clearance_p05_mm is not None
         lines.append(
             f"  clearance    min {ev.min_clearance_mm:.0f} mm, 5th percentile "
-            f"{ev.clearance_p05_mm:.0f} mm (target ≥ {ev.clearance_target_mm:.0f} mm = "
-            f"clearance_mm − {CLEARANCE_TOLERANCE_MM:.0f}; {ev.clearance_below_target} below)")
+            f"{ev.clearance_p05_mm:.0f} mm (target ≥ "
+            + ("each mission's " if ev.mission_path == RANDOM
+               else f"{ev.clearance_target_mm:.0f} mm = ")
+            + f"clearance_mm − {CLEARANCE_TOLERANCE_MM:.0f}; {ev.clearance_below_target} below)")
     speed = ""
     if ev.wall_time_mean_s > 0:
         mean_sim = float(np.mean([s.sim_time_s for s in ev.results]))

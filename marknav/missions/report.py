@@ -4,10 +4,12 @@ The event log is written line by line and flushed as events happen, and the repo
 in a ``finally`` block, so an aborted, failed or interrupted run loses nothing.
 
 Report keys: ``outcome`` ("success" | "failed" | "aborted"), ``reason``, ``sim_time_s``,
-``wall_time_s``, ``ticks``, ``waypoints: [{colour, side, outcome, passed_on, min_clearance_mm}]``,
-``collisions``, ``safety_events: [{t, event, state}]``, ``tick_ms: {p50, p99, max}``,
-``overruns`` — plus ``mission``, ``seed``, ``robot``, ``camera``, ``speedup``, and ``overrides``:
-the ``--set KEY=VALUE`` settings the run used on top of the mission file.
+``wall_time_s``, ``ticks``, ``waypoints: [{colour, side, outcome, passed_on, min_clearance_mm,
+mark: {index, x_mm, y_mm}, truth, truth_detail}]``, ``collisions``, ``safety_events: [{t, event,
+state}]``, ``tick_ms: {p50, p99, max}``, ``overruns`` — plus ``mission``, ``seed``, ``robot``,
+``camera``, ``speedup`` and, from the simulator, ``truth_path: [[t, x_mm, y_mm], ...]``,
+and ``overrides``: the ``--set KEY=VALUE`` settings the run used on top of the mission file; and
+``range_law``: the range law learnt while driving.
 """
 
 from __future__ import annotations
@@ -36,6 +38,12 @@ class WaypointResult:
     outcome: str = "pending"  # "passed" | "failed" | "pending"
     passed_on: str | None = None  # from ground truth (simulator only)
     min_clearance_mm: float | None = None  # from ground truth (simulator only)
+    # Simulator only: the course's physical mark for this waypoint ({index, x_mm, y_mm}) and the
+    # ground truth's verdict: "passed" | "wrong_side" | "skipped" | "out_of_order" |
+    # "off_course" (marknav.sim.truth), with a few words on what happened.
+    mark: dict[str, Any] | None = None
+    truth: str | None = None
+    truth_detail: str = ""
 
 
 @dataclass
@@ -61,6 +69,8 @@ class RunReport:
     overrides: list[str] = field(default_factory=list)
     # The range law perception learnt while driving (camera.learn_range), ready to paste.
     range_law: dict[str, Any] | None = None
+    # Simulator only: the true path, [[t, x_mm, y_mm], ...] at 10 Hz, to re-check the truth.
+    truth_path: list[list[float]] | None = None
 
     @property
     def speedup(self) -> float | None:

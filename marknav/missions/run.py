@@ -20,7 +20,7 @@ from marknav.behaviours import keys
 from marknav.behaviours.route import build_route_tree, failure_reason
 from marknav.errors import InputError
 from marknav.missions.registry import BuildContext, build_tree
-from marknav.missions.report import ABORTED, EventLog, RunReport, WaypointResult
+from marknav.missions.report import ABORTED, FAILED, SUCCESS, EventLog, RunReport, WaypointResult
 from marknav.missions.runlog import Recorder
 from marknav.missions.runner import Environment, RunOptions, run_tree
 from marknav.missions.schema import Mission, load_mission
@@ -52,6 +52,7 @@ class RunRequest:
     frames_hz: float | None = None  # save camera frames (JPEG) beside the event log this often
     viewer: bool = False  # stream the run to a Rerun viewer (the ``viewer`` extra)
     record_path: Path | None = None  # save a Rerun recording (.rrd)
+    world_model: Any = None  # a World built in memory (a random mission's): used as it is
 
 
 @dataclass
@@ -76,6 +77,11 @@ def build_mission_tree(mission: Mission) -> py_trees.behaviour.Behaviour:
 def _world_for(mission: Mission, req: RunRequest, seed: int) -> Any:
     from marknav.sim import world as worldmod
 
+    if req.world_model is not None:
+        world = req.world_model
+        worldmod.check_against_palette(world, mission.palette())
+        worldmod.check_course(world, mission.route)
+        return world.with_mark_radius(mission.marks.radius_mm)
     path = None if req.generate_world else req.world
     if (path is None and not req.generate_world and mission.sim is not None
             and mission.sim.world is not None):
@@ -83,6 +89,7 @@ def _world_for(mission: Mission, req: RunRequest, seed: int) -> Any:
     if path is not None:
         world = worldmod.load_world(path)
         worldmod.check_against_palette(world, mission.palette(), path)
+        worldmod.check_course(world, mission.route, path)
     else:
         world = worldmod.generate_world(
             mission.route, seed=seed, clearance_mm=mission.navigation.clearance_mm,
@@ -312,24 +319,40 @@ def _fill_range_law(root: py_trees.behaviour.Behaviour, mission: Mission,
 
 
 def _fill_ground_truth(mission: Mission, env: Environment, report: RunReport) -> dict[str, Any]:
-    """Ground truth into the report (simulator only); returns the run log's extra figures:
-    collision points and the world mark each waypoint was matched to."""
+    """The simulator's verdict, from the true path alone: per waypoint the course mark and its
+    truth, the path itself, and — a run is a success only if the truth says so — a route the
+    tree completed but the truth denies becomes a failure with the truth's reason. Returns the
+    run log's extra figures: collision points and the world mark each waypoint was matched to."""
     from marknav.sim.environment import SimEnvironment, waypoint_truth
+    from marknav.sim.truth import PASSED, truth_path
 
     if not isinstance(env, SimEnvironment):
         return {}
-    truth = waypoint_truth(env.truth, env.world, list(mission.route), pass_times(mission))
-    for wp, (side, clearance, _idx) in zip(report.waypoints, truth, strict=True):
-        wp.passed_on = side
-        wp.min_clearance_mm = clearance
+    route = list(mission.route)
+    truth = waypoint_truth(env.truth, env.world, route, [mission.side_of(c) for c in route])
+    for wp, mt in zip(report.waypoints, truth, strict=True):
+        wp.passed_on = mt.passed_on
+        wp.min_clearance_mm = mt.min_clearance_mm
+        wp.mark = mt.mark_dict()
+        wp.truth = mt.truth
+        wp.truth_detail = mt.detail
+    report.truth_path = truth_path(env.truth.t, env.truth.xy)
     report.collisions = len(env.truth.collisions)
+    denied = [f"waypoint {i} ({wp.colour}, mark {mt.mark_index}) {mt.truth.replace('_', ' ')}"
+              + (f": {mt.detail}" if mt.detail else "")
+              for i, (wp, mt) in enumerate(zip(report.waypoints, truth, strict=True), start=1)
+              if mt.truth != PASSED]
+    if report.outcome == SUCCESS and denied:
+        report.outcome = FAILED
+        report.reason = ("the tree completed the route, but the ground truth says: "
+                         + "; ".join(denied))
     report.sim_final = {
         "wheels_mm_s": [env.create.wheel_speeds.left, env.create.wheel_speeds.right],
         "oi_mode": env.create.mode.name.lower(),
         "stream": bool(env.create.streaming),
     }
     return {"collision_points": list(env.truth.collisions),
-            "waypoint_marks": [idx for _s, _c, idx in truth]}
+            "waypoint_marks": [mt.mark_index for mt in truth]}
 
 
 def _plot(mission: Mission, env: Environment, result: RunResult, path: Path,

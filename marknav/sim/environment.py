@@ -10,13 +10,13 @@ from the robot's true pose. Nothing here reads the wall clock: a run is determin
 and runs as fast as the machine allows.
 
 Ground truth (robot pose at every sub-step, contacts) is recorded for the run report's
-``passed_on``, ``min_clearance_mm`` and ``collisions`` and for the top-down plot.
+per-waypoint truth (:mod:`marknav.sim.truth`), ``truth_path``, ``collisions`` and the top-down
+plot.
 """
 
 from __future__ import annotations
 
 import logging
-import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -31,6 +31,7 @@ from marknav.sim import world as worldmod
 from marknav.sim.camera import CameraConfig, SimCamera
 from marknav.sim.create import SimulatedCreate
 from marknav.sim.protocol_createsim import register, unregister
+from marknav.sim.truth import MarkTruth, course_truth
 from marknav.vision.palette import Palette
 
 log = logging.getLogger(__name__)
@@ -182,43 +183,8 @@ def waypoint_truth(
     truth: GroundTruth,
     world: worldmod.World,
     route: list[str],
-    pass_times: list[float | None],
-) -> list[tuple[str | None, float | None, int | None]]:
-    """For each waypoint: (passed_on, min_clearance_mm, mark index) from ground truth.
-
-    The waypoint's mark is the mark of its colour nearest to the robot when the behaviour tree
-    declared it passed (or, if it never did, the next unused mark of that colour in the world's
-    order). The side and clearance are measured on the trajectory between the previous
-    waypoint's pass and this one's (plus a little after, so a pass that completes just after the
-    tree moved on still counts).
-    """
-    out: list[tuple[str | None, float | None, int | None]] = []
-    used: set[int] = set()
-    t_prev: float | None = None
-    xy_all = np.asarray(truth.xy, dtype=float).reshape(-1, 2)
-    ts = np.asarray(truth.t)
-    for colour, t_pass in zip(route, pass_times, strict=True):
-        candidates = [i for i, m in enumerate(world.marks) if m.colour == colour]
-        if not candidates or len(ts) == 0:
-            out.append((None, None, None))
-            continue
-        if t_pass is not None:
-            k = int(np.searchsorted(ts, t_pass).clip(0, len(ts) - 1))
-            here = xy_all[k]
-            idx = min(candidates, key=lambda i: math.dist(world.marks[i].xy, here))
-        else:
-            unused = [i for i in candidates if i not in used] or candidates
-            idx = unused[0]
-        used.add(idx)
-        mark_xy = world.marks[idx].xy
-        t_end = None if t_pass is None else t_pass + 3.0
-        seg = truth.trajectory(t_prev, t_end)
-        if len(seg) == 0:
-            out.append((None, None, idx))
-            continue
-        side = worldmod.passed_on(seg, mark_xy) if t_pass is not None else None
-        clearance = worldmod.min_clearance_mm(seg, mark_xy)
-        out.append((side, round(float(clearance), 1), idx))
-        if t_pass is not None:
-            t_prev = t_pass
-    return out
+    sides: list[str],
+) -> list[MarkTruth]:
+    """For each waypoint, its course mark and what the true path did there (see
+    :mod:`marknav.sim.truth`: from the path alone, never from what the tree declared)."""
+    return course_truth(truth.t, truth.xy, world, route, sides)

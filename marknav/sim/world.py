@@ -66,6 +66,7 @@ __all__ = [
     "World",
     "bumps",
     "check_against_palette",
+    "check_course",
     "clutter_items",
     "contacts",
     "generate_world",
@@ -304,10 +305,15 @@ class World(_Strict):
     boxes: tuple[Box, ...] = ()
     conditions: Conditions = Conditions()
     background: Background = Background()
+    #: The course: the mark (index into ``marks``) each waypoint must pass, in route order; a mark
+    #: may appear more than once. ``None``: the marks in file order, one per waypoint.
+    course: tuple[Annotated[int, Field(ge=0)], ...] | None = None
 
     # Where each mark's colour sits in the source file (for check_against_palette).
     _source: str | None = PrivateAttr(default=None)
     _colour_positions: dict[int, Position] = PrivateAttr(default_factory=dict)
+    _course_position: Position | None = PrivateAttr(default=None)
+    _course_item_positions: dict[int, Position] = PrivateAttr(default_factory=dict)
 
     @field_validator("marks")
     @classmethod
@@ -324,10 +330,25 @@ class World(_Strict):
                     )
         return marks
 
+    @model_validator(mode="after")
+    def _course_in_range(self) -> World:
+        for k, i in enumerate(self.course or ()):
+            if i >= len(self.marks):
+                raise ValueError(f"course[{k}] is mark {i}, but the world has {len(self.marks)} "
+                                 f"marks (indices 0..{len(self.marks) - 1})")
+        return self
+
     @property
     def source(self) -> str | None:
         """The file this world was loaded from, if any."""
         return self._source
+
+    def course_for(self, waypoints: int) -> list[int]:
+        """The mark index of each of ``waypoints`` waypoints: the world's ``course``, or by
+        default the first ``waypoints`` marks in file order (:func:`check_course` validates)."""
+        if self.course is not None:
+            return list(self.course)
+        return list(range(min(waypoints, len(self.marks))))
 
     def with_mark_radius(self, radius_mm: float) -> World:
         """A copy where marks without their own ``radius_mm`` get ``radius_mm`` (the mission's)."""
@@ -338,6 +359,8 @@ class World(_Strict):
         out = World.model_validate({**self._fields_dict(), "marks": marks})
         out._source = self._source
         out._colour_positions = dict(self._colour_positions)
+        out._course_position = self._course_position
+        out._course_item_positions = dict(self._course_item_positions)
         return out
 
     def with_conditions(self, conditions: Conditions) -> World:
@@ -360,7 +383,54 @@ def load_world(path: str | Path) -> World:
         pos = doc.positions.get(("marks", i, "colour"))
         if pos is not None:
             world._colour_positions[i] = pos
+    world._course_position = doc.positions.get(("course",)) or doc.positions.get(("marks",))
+    for k in range(len(world.course or ())):
+        item = doc.positions.get(("course", k))
+        if item is not None:
+            world._course_item_positions[k] = item
     return world
+
+
+def check_course(world: World, route: Sequence[str], file: str | Path | None = None) -> None:
+    """Raise :class:`InputError` if the world's course does not fit the route: one mark per
+    waypoint, each of the waypoint's colour (errors name the file and the ``course`` line — the
+    ``marks`` line when the world has no ``course`` — or the mark's line for a colour)."""
+    where = str(file) if file is not None else world.source
+    pos = world._course_position
+    errors: list[InputError] = []
+    if world.course is None:
+        if len(world.marks) < len(route):
+            errors.append(InputError(
+                f"the route has {len(route)} waypoints but the world only {len(world.marks)} "
+                f"marks: say which mark each waypoint passes with course: [i, ...] (mark "
+                f"indices, repeats allowed)", file=where, line=pos.line if pos else None,
+                column=pos.column if pos else None, field="course"))
+    elif len(world.course) != len(route):
+        errors.append(InputError(
+            f"{len(world.course)} entries for a route of {len(route)} waypoints (one mark index "
+            f"per waypoint)", file=where, line=pos.line if pos else None,
+            column=pos.column if pos else None, field="course"))
+    if not errors:
+        course = world.course_for(len(route))
+        for w, (colour, i) in enumerate(zip(route, course, strict=True)):
+            mark = world.marks[i]
+            if mark.colour == colour:
+                continue
+            if world.course is None:
+                mpos = world._colour_positions.get(i)
+                line, column, fld = (mpos.line if mpos else None, mpos.column if mpos else None,
+                                     f"marks[{i}].colour")
+                hint = " (the default course is the marks in file order; or give course:)"
+            else:
+                ipos = world._course_item_positions.get(w, pos)
+                line, column, fld = (ipos.line if ipos else None, ipos.column if ipos else None,
+                                     f"course[{w}]")
+                hint = ""
+            errors.append(InputError(
+                f"waypoint {w + 1} of the route is {colour!r} but its mark {i} is "
+                f"{mark.colour!r}{hint}", file=where, line=line, column=column, field=fld))
+    if errors:
+        raise InputErrors(errors)
 
 
 def check_against_palette(
@@ -539,6 +609,7 @@ def generate_world(
         robot=robot,
         conditions=cond,
         background=Background(seed=int(seed), clutter=clutter),
+        course=tuple(range(len(marks))),
     )
 
 
@@ -794,14 +865,17 @@ def pass_crossings(
 
     A pass is the path crossing the line through the mark perpendicular to the direction of
     travel (the mark going from ahead to behind), by a segment within ``within_mm`` of the mark
-    (farther crossings are not a pass). After a pass, the next one counts only once the mark has
-    been back within ``REARM_BEARING_DEG`` of the direction of travel.
+    (farther crossings are not a pass) — or at a corner of the path (a turn on the spot), when
+    the mark is ahead along the way in and behind along the way out. After a pass, the next one
+    counts only once the mark has been back within ``REARM_BEARING_DEG`` of the direction of
+    travel.
     """
     p = _xy(trajectory)
     m = np.asarray(mark_xy, dtype=float)
     rearm = math.cos(math.radians(REARM_BEARING_DEG))
     armed = True
     out: list[Crossing] = []
+    prev_d: npt.NDArray[np.float64] | None = None
     for k in range(len(p) - 1):
         d = p[k + 1] - p[k]
         dd = float(d @ d)
@@ -809,10 +883,22 @@ def pass_crossings(
             continue
         to_mark = m - p[k]
         dist = float(np.hypot(*to_mark))
-        if dist > 0 and float(to_mark @ d) / (dist * math.sqrt(dd)) >= rearm:
-            armed = True
         s0 = float((p[k] - m) @ d)
         s1 = float((p[k + 1] - m) @ d)
+        if armed and prev_d is not None and float(to_mark @ prev_d) > 0.0 and s0 > 0.0:
+            # A corner (the robot turned on the spot there): the mark was ahead along the way in
+            # and is behind along the way out, so it was passed at the corner.
+            u = prev_d / math.sqrt(float(prev_d @ prev_d)) + d / math.sqrt(dd)
+            nu = float(np.hypot(*u))
+            if nu > 1e-9:
+                u = u / nu
+                lateral = float(u[0] * to_mark[1] - u[1] * to_mark[0])
+                if abs(lateral) <= within_mm:
+                    out.append(Crossing(index=k, fraction=0.0, lateral_mm=lateral))
+                    armed = False
+        prev_d = d
+        if dist > 0 and float(to_mark @ d) / (dist * math.sqrt(dd)) >= rearm:
+            armed = True
         if not (armed and s0 < 0.0 <= s1):
             continue
         t = -s0 / dd

@@ -100,3 +100,40 @@ def test_a_never_seen_mark_is_sought_toward_the_mark_passed_last():
     assert search_direction(green, here) == LEFT
     # and a previous mark on the left turns left.
     assert search_direction(green, here, passed(-800.0)) == LEFT
+
+
+def test_a_wrong_memory_is_forgotten_after_a_full_turn(rig):
+    """Issue 11: the target was a remembered mark (3.5 m away, too far for a missed frame to
+    forget it) whose estimate was wrong; the real mark of that colour, 4.5 m away the other way,
+    was in view during the turn but not where the memory said. After a full turn the memory
+    is dropped and the search goes on for the nearest red in view."""
+    rig.perception.place("red", x_mm=3200, y_mm=3200)  # 45°, 4.5 m: the real mark
+    ghost = keys.KnownMark("red", -2475.0, 2475.0, t=0.0, range_mm=3000.0, seen=5)
+    py_trees.blackboard.Blackboard.set(keys.KNOWN, (ghost,))
+    py_trees.blackboard.Blackboard.set(keys.TARGET, keys.Target(
+        waypoint=0, waypoint_id="waypoint-0-red", colour="red", side="left",
+        world_x=ghost.world_x, world_y=ghost.world_y, remembered=True))
+    tree, node = search_tree(rig)
+    log = rig.run(tree, max_ticks=600)
+    assert log.reached
+    assert node.forgot_memory
+    assert node.feedback_message.startswith("found red #1 after")
+    target = rig.bb(keys.TARGET)
+    assert not target.remembered and target.sighting is not None
+    assert target.sighting.world_x == pytest.approx(3200, abs=5)
+    assert all(k.world != ghost.world for k in rig.bb(keys.KNOWN, ()))
+    assert log.records[-1].t > 9.0  # one full turn first
+
+
+def test_a_remembered_target_without_a_mark_anywhere_still_fails(rig):
+    ghost = keys.KnownMark("red", -2475.0, 2475.0, t=0.0, range_mm=3000.0, seen=5)
+    py_trees.blackboard.Blackboard.set(keys.KNOWN, (ghost,))
+    py_trees.blackboard.Blackboard.set(keys.TARGET, keys.Target(
+        waypoint=0, waypoint_id="waypoint-0-red", colour="red", side="left",
+        world_x=ghost.world_x, world_y=ghost.world_y, remembered=True))
+    tree, node = search_tree(rig, timeout_s=30.0)
+    log = rig.run(tree, Status.FAILURE, max_ticks=900)
+    assert log.reached
+    assert node.forgot_memory
+    assert node.feedback_message.startswith("red #1 not found in a full turn")
+    assert log.records[-1].t == pytest.approx(18.0, abs=0.2)  # two full turns

@@ -219,3 +219,22 @@ def test_a_remembered_target_is_recognised_within_a_wider_gate():
     assert associate([near], replace(t, remembered=False)) is not None  # unlocked: nearest
     assert associate([near], t) is near                                # 470 mm ≤ 2.5 × 380 mm
     assert associate([near], replace(t, locked=True, remembered=False)) is None  # locked: strict
+
+
+def test_a_remembered_target_is_taken_only_once_turned_toward_it():
+    """Issue 11's zigzag: purple #4 remembered 2.1 m ahead-right, its estimate off; turning
+    toward it the search first saw purple #5 (the next mark, within the wide gate) and took it.
+    Now nothing is taken until the remembered position is near the heading; then the sighting
+    nearest to the remembered position wins."""
+    t = target(colour="purple", remembered=True, world_x=1500.0, world_y=1500.0)
+    nxt = seen("purple", 900, 2400)    # 1082 mm from the memory: within 2.5 gates (1616 mm)
+    real = seen("purple", 1800, 1250)  # 391 mm from it
+    facing_next = Pose(0.0, 0.0, math.atan2(2400, 900))
+    facing_memory = Pose(0.0, 0.0, math.radians(45.0 + 5.0))
+    assert associate([nxt], t) is nxt                       # without the pose: the gate alone
+    assert associate([nxt], t, pose=facing_next) is None    # memory 23° off the heading
+    assert associate([nxt, real], t, pose=facing_memory) is real
+    assert associate([nxt], t, pose=facing_memory) is nxt   # alone, within the gate: taken
+    # A locked target is not affected (followed by position, strict gate).
+    locked = replace(t, locked=True, remembered=False, world_x=900.0, world_y=2400.0)
+    assert associate([nxt], locked, pose=facing_next) is nxt

@@ -83,9 +83,13 @@ def report(outcome: str = "success", reason: str = "every waypoint passed", *,
     sides = ("left", "right")
     wps = []
     for i, (p, c) in enumerate(zip(passed_on, clearance, strict=True)):
+        truth = "skipped" if p is None else ("passed" if p == sides[i] else "wrong_side")
         wps.append(WaypointResult(colour=("red", "green")[i], side=sides[i],
                                   outcome="passed" if p is not None else "failed",
-                                  passed_on=p, min_clearance_mm=c))
+                                  passed_on=p, min_clearance_mm=c, truth=truth,
+                                  mark={"index": i, "x_mm": 0.0, "y_mm": 1500.0 * (i + 1)},
+                                  truth_detail=f"passed on its {p} at {c:.0f} mm"
+                                  if truth == "wrong_side" else ""))
     return RunReport(mission="m", outcome=outcome, reason=reason, sim_time_s=sim,
                      wall_time_s=wall, waypoints=wps, collisions=collisions)
 
@@ -123,12 +127,12 @@ def test_summarise_counts_what_went_wrong() -> None:
     assert ev.wall_time_mean_s == pytest.approx(8.0)
     assert [(f.seed, f.outcome, f.failure_reason) for f in ev.failures] == [
         (11, "success", "the tree completed the route, but the ground truth says: waypoint 1 "
-                        "(red) passed on its right, not its left"),
+                        "(red, mark 0) wrong side: passed on its right at 305 mm"),
         (12, "aborted", "BackOff: bumped 3 times"), (14, "failed", "time limit: 140 s")]
     assert not ev.passed
     incidents = {s.seed: problems for s, problems in ev.incidents}
     assert incidents == {
-        11: ["waypoint 1 (red) passed on its right, not its left"],
+        11: ["waypoint 1 (red, mark 0) wrong side: passed on its right at 305 mm"],
         12: ["3 collisions", "waypoint 1 (red) clearance 240 mm < 250 mm"],
         13: ["1 collision"],
     }
@@ -166,7 +170,7 @@ def test_text_summary_lists_failures_and_incidents() -> None:
     assert "  seed 14: failed — time limit: 140 s\n    replay: marknav run m.yaml --world random " \
            "--seed 14" in text
     assert "  seed 11: the tree completed the route, but the ground truth says: " \
-           "waypoint 1 (red) passed on its right, not its left" in text
+           "waypoint 1 (red, mark 0) wrong side: passed on its right at 305 mm" in text
 
 
 def test_no_passed_waypoint_has_no_clearance() -> None:

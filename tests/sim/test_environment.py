@@ -76,6 +76,9 @@ def test_ground_truth_side_and_clearance(env: SimEnvironment) -> None:
     drive_for(env, 1.0, left=300, right=100)
     drive_for(env, 4.0, left=250, right=250)
     assert env.truth.collisions == []
-    (side, clearance, index), = waypoint_truth(env.truth, env.world, ["red"], [env.clock.now()])
-    assert (side, index) == ("left", 0)
+    (mt,) = waypoint_truth(env.truth, env.world, ["red"], ["left"])
+    assert (mt.passed_on, mt.mark_index, mt.truth) == ("left", 0, "passed")
+    (mt_right,) = waypoint_truth(env.truth, env.world, ["red"], ["right"])
+    assert mt_right.truth == "wrong_side"
+    clearance = mt.min_clearance_mm
     assert clearance == pytest.approx(min(math.dist(p, MARK) for p in env.truth.xy), abs=0.1)
