@@ -58,14 +58,11 @@ MODULES: dict[str, Module] = {
     "safety": Module("marknav/drivers/safety.py", (
         "tests/drivers/test_safety.py", "tests/behaviours/test_safety.py",
         "tests/testing/test_fake_robot.py", "tests/drivers/test_driver.py")),
-    # the ground truth per waypoint (not the simulator loop around it)
-    "truth": Module("marknav/sim/environment.py", (
-        "tests/sim/test_environment.py", "tests/sim/test_truth_window.py"),
-        only=("marknav.sim.environment.x_waypoint_truth*",
-              "marknav.sim.environment.xǁGroundTruthǁ*")),
+    # the ground truth per waypoint, from the true path alone
+    "truth": Module("marknav/sim/truth.py", ("tests/sim/test_truth.py",)),
     # the evaluation's verdict and statistics (not its process pool or its text)
     "verdict": Module("marknav/missions/evaluate.py", (
-        "tests/missions/test_evaluate.py", "tests/missions/test_verdict.py"),
+        "tests/missions/test_evaluate.py", "tests/missions/test_truth_runs.py"),
         only=("marknav.missions.evaluate.xǁSeedResultǁ*",
               "marknav.missions.evaluate.x_summarise*",
               "marknav.missions.evaluate.x_wilson_interval*",

@@ -78,7 +78,8 @@ def test_statuses_are_rebuilt_tick_by_tick_from_the_log_alone(slalom_run: dict[s
     last = replay.ticks[-1]
     env = slalom_run["result"].environment
     assert np.hypot(*(np.asarray(last["truth"][:2]) - env.truth.xy[-1])) < 30.0
-    assert np.hypot(*(np.asarray(last["pose"][:2]) - np.asarray(last["truth"][:2]))) < 300.0
+    # odometry, not the truth (after 7 m it has drifted by a few hundred mm, not metres)
+    assert np.hypot(*(np.asarray(last["pose"][:2]) - np.asarray(last["truth"][:2]))) < 500.0
 
 
 def test_the_log_holds_detections_blackboard_writes_wheels_and_frames(
