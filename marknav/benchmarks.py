@@ -8,11 +8,11 @@ versions) once at the top level, then a section per benchmark:
   (:func:`marknav.vision.bench.run_vision_bench`), and on the real photographs and composited
   frames of the source tree's ``tests/data`` (:func:`marknav.vision.bench_real.run_real_bench`);
 - ``tree`` — µs per behaviour-tree tick, slalom and a 50-waypoint route, mocked perception
-  (:func:`marknav.missions.bench.bench_tree`);
+  (:func:`marknav.runs.bench.bench_tree`);
 - ``loop`` — a simulated mission with rendering and detection: cycle times, overruns, speed-up
-  (:func:`marknav.missions.bench.bench_loop`);
+  (:func:`marknav.runs.bench.bench_loop`);
 - ``safety`` — bump-to-stop latency, safety layer alone and through the real driver
-  (:func:`marknav.missions.bench.bench_safety`);
+  (:func:`marknav.runs.bench.bench_safety`);
 - ``render`` — ms per simulator frame against the 2 ms target
   (:func:`marknav.sim.render_bench.bench_render`).
 
@@ -68,13 +68,13 @@ def _vision(quick: bool) -> dict[str, Any]:
 
 
 def _tree(quick: bool) -> dict[str, Any]:
-    from marknav.missions.bench import bench_tree
+    from marknav.runs.bench import bench_tree
 
     return bench_tree(ticks=200, slalom_ticks=200) if quick else bench_tree()
 
 
 def _loop(quick: bool) -> dict[str, Any]:
-    from marknav.missions.bench import bench_loop
+    from marknav.runs.bench import bench_loop
 
     return bench_loop(max_time_s=5.0) if quick else bench_loop(max_time_s=60.0)
 
@@ -86,7 +86,7 @@ def _render(quick: bool) -> dict[str, Any]:
 
 
 def _safety(quick: bool) -> dict[str, Any]:
-    from marknav.missions.bench import bench_safety
+    from marknav.runs.bench import bench_safety
 
     return bench_safety(n=200, e2e_n=50) if quick else bench_safety()
 

@@ -23,13 +23,13 @@ log = logging.getLogger(__name__)
 
 #: Modules that each register one or more sub-commands.
 COMMANDS: tuple[str, ...] = (
-    "marknav.missions.cmd_run",
+    "marknav.runs.cmd_run",
     "marknav.missions.cmd_validate",
     "marknav.missions.cmd_tree",
-    "marknav.missions.cmd_evaluate",
-    "marknav.missions.cmd_replay",
-    "marknav.missions.cmd_tune",
-    "marknav.missions.cmd_random_mission",
+    "marknav.runs.cmd_evaluate",
+    "marknav.runs.cmd_replay",
+    "marknav.runs.cmd_tune",
+    "marknav.runs.cmd_random_mission",
     "marknav.benchmarks",
     "marknav.vision.cmd_detect",
     "marknav.vision.cmd_calibrate",

@@ -388,8 +388,8 @@ def test_7_a_signal_while_importing_exits_130_without_a_traceback(tmp_path: Path
 
 def _run_with_injected_signal(monkeypatch: pytest.MonkeyPatch, target: str, sig: int,
                               after: bool = False) -> None:
-    """Wrap ``marknav.missions.run.<target>`` so that it sends ``sig`` to this process."""
-    import marknav.missions.run as runmod
+    """Wrap ``marknav.runs.run.<target>`` so that it sends ``sig`` to this process."""
+    import marknav.runs.run as runmod
 
     original = getattr(runmod, target)
 

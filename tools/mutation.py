@@ -61,13 +61,13 @@ MODULES: dict[str, Module] = {
     # the ground truth per waypoint, from the true path alone
     "truth": Module("marknav/sim/truth.py", ("tests/sim/test_truth.py",)),
     # the evaluation's verdict and statistics (not its process pool or its text)
-    "verdict": Module("marknav/missions/evaluate.py", (
-        "tests/missions/test_evaluate.py", "tests/missions/test_truth_runs.py"),
-        only=("marknav.missions.evaluate.xǁSeedResultǁ*",
-              "marknav.missions.evaluate.x_summarise*",
-              "marknav.missions.evaluate.x_wilson_interval*",
-              "marknav.missions.evaluate.x_percentile*",
-              "marknav.missions.evaluate.x__incident*")),
+    "verdict": Module("marknav/runs/evaluate.py", (
+        "tests/runs/test_evaluate.py", "tests/missions/test_truth_runs.py"),
+        only=("marknav.runs.evaluate.xǁSeedResultǁ*",
+              "marknav.runs.evaluate.x_summarise*",
+              "marknav.runs.evaluate.x_wilson_interval*",
+              "marknav.runs.evaluate.x_percentile*",
+              "marknav.runs.evaluate.x__incident*")),
 }
 
 #: Tests that measure wall-clock margins or spawn processes are never selected: a mutant runs

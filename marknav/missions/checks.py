@@ -76,7 +76,7 @@ def check_build(mission: Mission) -> list[InputError]:
     """Problems building the mission's tree (none for the default route tree)."""
     if mission.tree is None:
         return []
-    from marknav.missions.run import build_mission_tree
+    from marknav.runs.run import build_mission_tree
 
     try:
         build_mission_tree(mission)

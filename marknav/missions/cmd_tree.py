@@ -31,8 +31,8 @@ def run(args: argparse.Namespace) -> int:
 
     from marknav.missions.checks import checked_mission
     from marknav.missions.overrides import parse_overrides
-    from marknav.missions.run import build_mission_tree
     from marknav.missions.tree_display import UNICODE_LEGEND, dot_tree, unicode_tree
+    from marknav.runs.run import build_mission_tree
 
     if args.dot is not None:
         from marknav.outputs import check_output_file

@@ -18,14 +18,13 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from marknav.clock import ManualClock
 from marknav.drivers.driver import CreateDriver
 from marknav.drivers.robot import Robot
-from marknav.missions.report import RunReport
 from marknav.planning.kinematics import Pose
 from marknav.sim import world as worldmod
 from marknav.sim.camera import CameraConfig, SimCamera
@@ -33,6 +32,9 @@ from marknav.sim.create import SimulatedCreate
 from marknav.sim.protocol_createsim import register, unregister
 from marknav.sim.truth import MarkTruth, course_truth
 from marknav.vision.palette import Palette
+
+if TYPE_CHECKING:
+    from marknav.runs.report import RunReport
 
 log = logging.getLogger(__name__)
 

@@ -125,7 +125,7 @@ def plot_log(records: Sequence[dict[str, Any]], path: str | Path) -> None:
 
 
 def plot_data_from_log(records: Sequence[dict[str, Any]]) -> PlotData:
-    """What the picture shows, from a run log's records (see :mod:`marknav.missions.runlog`)."""
+    """What the picture shows, from a run log's records (see :mod:`marknav.runs.runlog`)."""
     tree = next((r for r in records if r["kind"] == "tree"), None)
     if tree is None:
         raise InputError("the run log has no tree record: nothing to draw")

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from marknav.missions.checks import checked_mission
-from marknav.missions.run import RunRequest, execute, pass_times
+from marknav.runs.run import RunRequest, execute, pass_times
 from marknav.sim.environment import SimEnvironment
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "missions" / "pause-at-each-mark.yaml"

@@ -5,7 +5,7 @@ from __future__ import annotations
 import py_trees
 from py_trees.common import Status
 
-from marknav.missions.runner import MissionTree
+from marknav.runs.runner import MissionTree
 
 
 class Counting(py_trees.visitors.VisitorBase):

@@ -17,8 +17,8 @@ import pytest
 from marknav.cli import main
 from marknav.drivers.oi import Opcode
 from marknav.missions.checks import checked_mission
-from marknav.missions.run import RunRequest, execute
 from marknav.missions.schema import mission_json_schema
+from marknav.runs.run import RunRequest, execute
 
 PKG = Path(__file__).resolve().parents[1] / "data" / "plugin_pkg"
 MISSION = PKG / "missions" / "wiggle-at-each-mark.yaml"

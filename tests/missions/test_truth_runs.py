@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from marknav.cli import main
-from marknav.missions.evaluate import SeedResult, WaypointTruth, summarise
-from marknav.missions.report import RunReport, WaypointResult
 from marknav.missions.schema import load_mission
+from marknav.runs.evaluate import SeedResult, WaypointTruth, summarise
+from marknav.runs.report import RunReport, WaypointResult
 from marknav.sim.truth import course_truth
 from marknav.sim.world import load_world
 

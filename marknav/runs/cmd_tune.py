@@ -1,5 +1,5 @@
 """``marknav tune``: search mission parameters for the best success rate, then the shortest
-median mission time, over the same randomised worlds (Optuna; :mod:`marknav.missions.tune`)."""
+median mission time, over the same randomised worlds (Optuna; :mod:`marknav.runs.tune`)."""
 
 from __future__ import annotations
 
@@ -52,7 +52,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from marknav.missions.tune import TrialSummary, best_yaml, parse_param, plot_trials, tune
+    from marknav.runs.tune import TrialSummary, best_yaml, parse_param, plot_trials, tune
 
     params = [parse_param(text) for text in args.param]
     if args.dask is not None and args.jobs != 1:

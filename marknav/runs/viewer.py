@@ -26,8 +26,8 @@ from pathlib import Path
 from typing import Any
 
 from marknav.errors import InputError
-from marknav.missions.display import status_text
-from marknav.missions.treeview import TreeState
+from marknav.runs.display import status_text
+from marknav.runs.treeview import TreeState
 
 EXTRA_HINT = "pip install 'marknav[viewer]'"
 #: Points per driven-path strip (the path is logged as growing strips of this many points).
@@ -221,7 +221,7 @@ def log_to_recording(log_path: Path, records: list[dict[str, Any]], *, spawn: bo
                      path: Path | None = None) -> RerunSink:
     """Feed a run log to Rerun (``marknav view RUN``): the same entities as a live run; camera
     images only where the run saved frames (``--frames``)."""
-    from marknav.missions.runlog import Replay
+    from marknav.runs.runlog import Replay
 
     replay = Replay(records)
     info = replay.info

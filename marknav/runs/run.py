@@ -20,10 +20,10 @@ from marknav.behaviours import keys
 from marknav.behaviours.route import build_route_tree, failure_reason
 from marknav.errors import InputError
 from marknav.missions.registry import BuildContext, build_tree
-from marknav.missions.report import ABORTED, FAILED, SUCCESS, EventLog, RunReport, WaypointResult
-from marknav.missions.runlog import Recorder
-from marknav.missions.runner import Environment, RunOptions, run_tree
 from marknav.missions.schema import Mission, load_mission
+from marknav.runs.report import ABORTED, FAILED, SUCCESS, EventLog, RunReport, WaypointResult
+from marknav.runs.runlog import Recorder
+from marknav.runs.runner import Environment, RunOptions, run_tree
 
 log = logging.getLogger(__name__)
 
@@ -125,7 +125,7 @@ def make_environment(mission: Mission, req: RunRequest, seed: int) -> Environmen
         raise InputError("--camera sim needs --robot sim; give a real camera (--camera 0, a "
                          "video file or an http:// stream) with a real robot", field="--camera")
     from marknav.drivers.driver import CreateDriver
-    from marknav.missions.hardware import HardwareEnvironment
+    from marknav.runs.hardware import HardwareEnvironment
     from marknav.vision.sources import open_source
 
     # timeout 0: the control cycle takes the newest frame if there is one, and never waits
@@ -284,11 +284,11 @@ def _finish(req: RunRequest, mission: Mission, env: Environment | None,
 def _recorder(req: RunRequest, root: py_trees.behaviour.Behaviour, env: Environment,
               events: EventLog) -> Recorder | None:
     """The run log's recorder, with the live view and the Rerun recording when asked for."""
-    from marknav.missions.display import make_view
+    from marknav.runs.display import make_view
 
     sinks: list[Any] = []
     if req.viewer or req.record_path is not None:
-        from marknav.missions.viewer import RerunSink
+        from marknav.runs.viewer import RerunSink
 
         sinks.append(RerunSink(req.mission, getattr(env, "world", None), spawn=req.viewer,
                                path=req.record_path))

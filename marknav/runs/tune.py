@@ -2,7 +2,7 @@
 
 Each trial sets the ``--param`` keys of the mission (dotted paths, e.g.
 ``navigation.clearance_mm``) to values drawn by Optuna's TPE sampler, writes that mission to
-the study's folder and evaluates it (:func:`marknav.missions.evaluate.evaluate`) on the SAME
+the study's folder and evaluates it (:func:`marknav.runs.evaluate.evaluate`) on the SAME
 seeds — the same randomised worlds — as every other trial, locally or on a Dask cluster.
 
 Objective (minimised), lexicographic by construction: success rate first, then the median
@@ -201,9 +201,9 @@ def tune(
         import optuna
     except ImportError:
         raise InputError("needs optuna: pip install 'marknav[cluster]'") from None
-    from marknav.missions.evaluate import evaluate
-    from marknav.missions.run import default_max_time_s
     from marknav.missions.schema import load_mission
+    from marknav.runs.evaluate import evaluate
+    from marknav.runs.run import default_max_time_s
     from marknav.yamlio import load_yaml_file
 
     if not params:

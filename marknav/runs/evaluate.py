@@ -38,8 +38,8 @@ from typing import Any
 import numpy as np
 
 from marknav.errors import InputError
-from marknav.missions.evaluate_backends import run_jobs
-from marknav.missions.report import SUCCESS, RunReport
+from marknav.runs.evaluate_backends import run_jobs
+from marknav.runs.report import SUCCESS, RunReport
 from marknav.sim.accuracy import DEFAULT_XS_MM, DEFAULT_YS_MM
 
 __all__ = [
@@ -273,20 +273,20 @@ def run_seed(mission_path: str, seed: int, max_time_s: float | None = None,
     """One evaluation run — the job (mission spec, seed[, --set overrides]): load the mission
     and run it on the generated randomised world of ``seed``; or, for the spec ``"random"``,
     draw the mission and its world from ``seed``
-    (:func:`marknav.missions.random_mission.random_mission`, here in the worker, so the job
+    (:func:`marknav.runs.random_mission.random_mission`, here in the worker, so the job
     stays small).
 
     A run that raises (a bug, not a mission failure) becomes outcome ``"error"`` with the
     exception as its reason; bad input (:class:`InputError`) and Ctrl-C propagate.
     """
     from marknav.missions.overrides import parse_overrides
-    from marknav.missions.run import RunRequest, execute
     from marknav.missions.schema import load_mission
+    from marknav.runs.run import RunRequest, execute
 
     wall0 = time.perf_counter()
     try:
         if mission_path == RANDOM:
-            from marknav.missions.random_mission import random_mission
+            from marknav.runs.random_mission import random_mission
 
             drawn = random_mission(seed)
             mission = drawn.mission
@@ -322,7 +322,7 @@ def replay_command(mission_path: str, seed: int, max_time_s: float | None = None
                    overrides: Sequence[str] = ()) -> str:
     """The ``marknav run`` command that replays evaluation run ``seed`` exactly."""
     if mission_path == RANDOM:
-        from marknav.missions.random_mission import replay_command as random_replay
+        from marknav.runs.random_mission import replay_command as random_replay
 
         return random_replay(seed, max_time_s)
     cmd = f"marknav run {shlex.quote(mission_path)} --world random --seed {seed}"
@@ -506,7 +506,7 @@ def evaluate(
 
     ``jobs`` > 1 runs them in that many worker processes (each loads the mission from its path);
     the results do not depend on it; ``dask`` (``tcp://HOST:PORT``) runs them on that Dask
-    cluster instead (:mod:`marknav.missions.evaluate_backends`). ``progress(done, total,
+    cluster instead (:mod:`marknav.runs.evaluate_backends`). ``progress(done, total,
     successes)`` is called with ``done = 0`` when the runs start, then after each run. Bad
     input raises :class:`InputError` before anything runs.
     """

@@ -39,8 +39,8 @@ import py_trees
 
 from marknav.behaviours import keys
 from marknav.errors import InputError
-from marknav.missions.report import EventLog, RunReport
-from marknav.missions.treeview import SUCCESS, TreeState
+from marknav.runs.report import EventLog, RunReport
+from marknav.runs.treeview import SUCCESS, TreeState
 
 log = logging.getLogger(__name__)
 
@@ -84,7 +84,7 @@ def _pose(p: Any) -> list[float]:
 class Recorder:
     """Watches a run tick by tick: feeds the run log, the live view and the Rerun recording.
 
-    ``view`` (a :mod:`~marknav.missions.display` view) and ``sinks`` (objects with
+    ``view`` (a :mod:`~marknav.runs.display` view) and ``sinks`` (objects with
     ``tick(record, frame_image)`` and ``close()``, e.g. the Rerun recording) are optional;
     ``frames_hz`` saves camera frames as JPEG files beside the log at most that often.
     """

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from marknav.missions.bench import bench_loop, bench_safety, bench_tree
+from marknav.runs.bench import bench_loop, bench_safety, bench_tree
 from marknav.testing import make_mission
 
 
@@ -132,5 +132,5 @@ def test_bench_profile_prints_the_top_costs(capsys: pytest.CaptureFixture[str]) 
     own = err.index("top 4 by own time:")
     cum = err.index("top 4 by cumulative time:")
     assert cum - own == 6  # header + 4 rows
-    assert any("marknav/missions/bench.py" in line for line in err[cum:])
+    assert any("marknav/runs/bench.py" in line for line in err[cum:])
     assert main(["bench", "safety", "--quick", "--profile", "0"]) == 2

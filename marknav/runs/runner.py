@@ -25,7 +25,7 @@ from py_trees.common import Status
 
 from marknav.clock import Clock
 from marknav.drivers.robot import ESTOPPED, FAULT, Robot
-from marknav.missions.report import ABORTED, FAILED, SUCCESS, EventLog, RunReport
+from marknav.runs.report import ABORTED, FAILED, SUCCESS, EventLog, RunReport
 from marknav.signals import Interrupted, interrupting
 from marknav.vision.sources import FrameSource
 

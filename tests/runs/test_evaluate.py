@@ -11,8 +11,8 @@ import pytest
 import yaml
 
 from marknav.cli import main
-from marknav.missions import evaluate as ev_mod
-from marknav.missions.evaluate import (
+from marknav.runs import evaluate as ev_mod
+from marknav.runs.evaluate import (
     SeedResult,
     format_evaluation,
     percentile,
@@ -20,7 +20,7 @@ from marknav.missions.evaluate import (
     summarise,
     wilson_interval,
 )
-from marknav.missions.report import RunReport, WaypointResult
+from marknav.runs.report import RunReport, WaypointResult
 from marknav.testing import BASE_MISSION
 
 Z2 = 1.959963984540054**2
@@ -283,7 +283,7 @@ def test_progress_bar_on_a_terminal(mission_file: Path, scripted_runs: list[int]
 
 def test_a_crashing_run_is_an_error_not_the_end(mission_file: Path,
                                                 monkeypatch: pytest.MonkeyPatch) -> None:
-    import marknav.missions.run as run_mod
+    import marknav.runs.run as run_mod
 
     def boom(req: object) -> object:
         raise ZeroDivisionError("division by zero")

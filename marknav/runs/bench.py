@@ -11,7 +11,7 @@ Each function returns a JSON-ready dict, the section ``marknav bench`` prints fo
   the tree's: the perception leaf publishing the marks, the guards, target selection, approach
   steering and the Bézier bypass (planning, pure pursuit).
 - :func:`bench_loop` — a simulated mission at ``control.rate_hz`` with full rendering and
-  detection (the run loop of :mod:`marknav.missions.runner`): the cycle time (poll + tick, which
+  detection (the run loop of :mod:`marknav.runs.runner`): the cycle time (poll + tick, which
   renders and detects), overruns of the period, and the simulator's speed-up over real time.
 - :func:`bench_safety` — bump-to-stop latency of the safety layer alone
   (:func:`marknav.drivers.safety_bench.measure_bump_to_stop`), and end to end through the real
@@ -65,7 +65,7 @@ def _time_route_tree(mission: Mission, *, ticks: int, warmup: int, seed: int,
     from marknav.behaviours import keys
     from marknav.behaviours.route import build_route_tree
     from marknav.clock import ManualClock
-    from marknav.missions.runner import MissionTree
+    from marknav.runs.runner import MissionTree
     from marknav.sim.world import generate_world
     from marknav.testing import FakePerception, FakeRobot, WorldMark
 
@@ -166,7 +166,7 @@ def bench_loop(*, mission: Mission | None = None, max_time_s: float = 60.0,
     """Run ``mission`` (default :func:`default_slalom`) in the simulator for at most
     ``max_time_s`` simulated seconds, as fast as the machine allows; cycle times, overruns,
     speed-up."""
-    from marknav.missions.run import RunRequest, execute
+    from marknav.runs.run import RunRequest, execute
 
     if not max_time_s > 0:
         raise ValueError(f"max_time_s must be positive, got {max_time_s}")

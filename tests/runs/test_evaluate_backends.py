@@ -18,7 +18,7 @@ import pytest
 import yaml
 
 from marknav.cli import main
-from marknav.missions.evaluate import SeedResult, evaluate
+from marknav.runs.evaluate import SeedResult, evaluate
 from marknav.testing import BASE_MISSION
 
 distributed = pytest.importorskip("distributed")
@@ -194,7 +194,7 @@ def test_pool_workers_die_with_a_killed_parent(tiny: Path) -> None:
 
 
 def test_help_and_progress_text(capsys: pytest.CaptureFixture[str]) -> None:
-    from marknav.missions.cmd_evaluate import ProgressBar
+    from marknav.runs.cmd_evaluate import ProgressBar
 
     with pytest.raises(SystemExit):
         main(["evaluate", "--help"])

@@ -81,8 +81,8 @@ def check_outputs(args: argparse.Namespace) -> None:
 def run(args: argparse.Namespace) -> int:
     from marknav.missions.checks import checked_mission
     from marknav.missions.overrides import parse_overrides
-    from marknav.missions.run import RunRequest, default_run_dir, execute, summary
     from marknav.outputs import printable
+    from marknav.runs.run import RunRequest, default_run_dir, execute, summary
 
     if args.max_time is not None and not args.max_time > 0:
         raise InputError(f"must be positive, got {args.max_time}", field="--max-time")
@@ -91,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
     if args.frames is not None and not args.frames > 0:
         raise InputError(f"must be positive, got {args.frames}", field="--frames")
     if args.viewer or args.record is not None:
-        from marknav.missions.viewer import require_display, require_rerun
+        from marknav.runs.viewer import require_display, require_rerun
 
         require_rerun("--viewer" if args.viewer else "--record")
         if args.viewer:

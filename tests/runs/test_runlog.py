@@ -21,11 +21,11 @@ import numpy as np
 import pytest
 
 from marknav.cli import main
-from marknav.missions import runlog
-from marknav.missions.run import RunRequest, execute
-from marknav.missions.runlog import Replay, read_log
 from marknav.missions.schema import load_mission
-from marknav.missions.treeview import TreeState, _preorder
+from marknav.runs import runlog
+from marknav.runs.run import RunRequest, execute
+from marknav.runs.runlog import Replay, read_log
+from marknav.runs.treeview import TreeState, _preorder
 
 ROOT = Path(__file__).resolve().parents[2]
 SLALOM = ROOT / "missions" / "slalom.yaml"

@@ -1,8 +1,8 @@
 """Where the runs of an evaluation execute: this process, a pool of local worker processes, or
 an existing Dask cluster (issue 16).
 
-A job is ``(mission spec, seed)``; every backend runs :func:`marknav.missions.evaluate.run_seed`
-on it and hands each :class:`~marknav.missions.evaluate.SeedResult` to ``on_result`` as soon as
+A job is ``(mission spec, seed)``; every backend runs :func:`marknav.runs.evaluate.run_seed`
+on it and hands each :class:`~marknav.runs.evaluate.SeedResult` to ``on_result`` as soon as
 it arrives (in completion order; the summary sorts by seed). A run is deterministic for its
 seed, so the backend changes the wall time and nothing else.
 
@@ -68,7 +68,7 @@ class EvaluationInterrupted(KeyboardInterrupt):
 
 
 def _run(job: Job, max_time_s: float | None) -> Any:
-    from marknav.missions.evaluate import run_seed
+    from marknav.runs.evaluate import run_seed
 
     with _RUN_LOCK:
         return run_seed(job[0], job[1], max_time_s, *job[2:])  # job[2]: --set overrides

@@ -14,7 +14,7 @@ from typing import Any
 from marknav.clock import Clock, MonotonicClock
 from marknav.drivers.driver import CreateDriver
 from marknav.drivers.robot import Robot
-from marknav.missions.report import RunReport
+from marknav.runs.report import RunReport
 from marknav.vision.sources import FrameSource
 
 

@@ -155,8 +155,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("give a MISSION to evaluate (or --missions random, or --accuracy)")
     if args.runs is None:
         raise InputError("give the number of runs: --runs N", field="--runs")
-    from marknav.missions.evaluate import evaluate, format_evaluation
     from marknav.missions.overrides import parse_overrides
+    from marknav.runs.evaluate import evaluate, format_evaluation
 
     parse_overrides(args.overrides)  # a malformed --set: exit 2 before anything runs
     if args.dask is not None and args.jobs != 1:
@@ -184,7 +184,7 @@ def _accuracy(args: argparse.Namespace) -> int:
         raise InputError("does not apply with --accuracy", field="--runs")
     if args.overrides:
         raise InputError("does not apply with --accuracy", field="--set")
-    from marknav.missions.evaluate import format_accuracy, plot_accuracy, position_accuracy
+    from marknav.runs.evaluate import format_accuracy, plot_accuracy, position_accuracy
 
     result = position_accuracy(args.mission, frames=args.frames, grid=args.grid,
                                seed=args.seed)
