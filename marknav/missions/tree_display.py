@@ -33,16 +33,24 @@ def _memory(node: Behaviour) -> bool:
     return bool(getattr(node, "memory", False))
 
 
-def _symbol(node: Behaviour) -> str:
+def kind_of(node: Behaviour) -> str:
+    """What a node is: ``sequence``, ``selector``, ``parallel``, ``decorator`` or ``leaf``."""
     if isinstance(node, py_trees.composites.Sequence):
-        return "→"
+        return "sequence"
     if isinstance(node, py_trees.composites.Selector):
-        return "?"
+        return "selector"
     if isinstance(node, py_trees.composites.Parallel):
-        return "⇉"
+        return "parallel"
     if isinstance(node, py_trees.decorators.Decorator):
-        return "◇"
-    return "•"
+        return "decorator"
+    return "leaf"
+
+
+_SYMBOLS = {"sequence": "→", "selector": "?", "parallel": "⇉", "decorator": "◇", "leaf": "•"}
+
+
+def _symbol(node: Behaviour) -> str:
+    return _SYMBOLS[kind_of(node)]
 
 
 def _unicode_label(node: Behaviour) -> str:

@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from marknav.errors import InputError
+from marknav.figures import save_figure
 from marknav.runs.evaluate_backends import run_jobs
 from marknav.runs.report import SUCCESS, RunReport
 from marknav.sim.accuracy import DEFAULT_XS_MM, DEFAULT_YS_MM
@@ -726,10 +727,4 @@ def plot_accuracy(result: AccuracyResult, out: str | Path) -> None:
     t = result.table
     fig.suptitle(f"Position accuracy ({result.source}; {t.model}; {t.frames_per_point} frames "
                  "per point)", fontsize=10)
-    fig.tight_layout()
-    try:
-        fig.savefig(str(out))
-    except OSError as exc:
-        raise InputError(f"cannot write the plot: {exc}", file=str(out)) from None
-    finally:
-        plt.close(fig)
+    save_figure(fig, out)

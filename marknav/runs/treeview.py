@@ -19,6 +19,8 @@ from typing import Any
 
 import py_trees
 
+from marknav.missions.tree_display import kind_of
+
 RUNNING, SUCCESS, FAILURE, INVALID = "RUNNING", "SUCCESS", "FAILURE", "INVALID"
 
 STATUS_SYMBOLS = {
@@ -37,18 +39,6 @@ HANDLED = "HANDLED"
 #: rich styles per status (the live view and replay; plain text ignores them).
 STATUS_STYLE = {RUNNING: "bold yellow", SUCCESS: "green", FAILURE: "bold red", INVALID: "dim",
                 HANDLED: "dim red"}
-
-
-def kind_of(node: py_trees.behaviour.Behaviour) -> str:
-    if isinstance(node, py_trees.composites.Sequence):
-        return "sequence"
-    if isinstance(node, py_trees.composites.Selector):
-        return "selector"
-    if isinstance(node, py_trees.composites.Parallel):
-        return "parallel"
-    if isinstance(node, py_trees.decorators.Decorator):
-        return "decorator"
-    return "leaf"
 
 
 def legend(style: str = "unicode") -> str:

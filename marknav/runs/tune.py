@@ -36,6 +36,7 @@ from typing import Any
 import yaml
 
 from marknav.errors import InputError
+from marknav.figures import save_figure
 
 __all__ = ["Param", "TuneResult", "best_yaml", "parse_param", "plot_trials", "tune"]
 
@@ -357,10 +358,4 @@ def plot_trials(result: TuneResult, params: Sequence[Param], out: Path) -> None:
     ax2.legend(fontsize=8)
     fig.colorbar(sc, ax=ax2, label="success rate [%]")
     fig.suptitle(f"marknav tune {result.mission}: {len(ts)} trials", fontsize=10)
-    fig.tight_layout()
-    try:
-        fig.savefig(str(out))
-    except OSError as exc:
-        raise InputError(f"cannot write the plot: {exc}", file=str(out)) from None
-    finally:
-        plt.close(fig)
+    save_figure(fig, out)

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from marknav.errors import InputError
+from marknav.figures import save_figure
 from marknav.inputfile import MAX_TABLE_BYTES, read_text
 from marknav.vision.estimate import PowerLaw
 
@@ -239,10 +240,4 @@ def plot_fit(fit: PowerFit, out: str | Path, title: str = "Range calibration") -
     ax.set_title(title)
     ax.grid(True, alpha=0.3)
     ax.legend()
-    fig.tight_layout()
-    try:
-        fig.savefig(str(out))
-    except OSError as exc:
-        raise InputError(f"cannot write the plot: {exc}", file=str(out)) from None
-    finally:
-        plt.close(fig)
+    save_figure(fig, out)

@@ -26,6 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from marknav.errors import InputError
+from marknav.figures import save_figure
 from marknav.vision.undistort import Intrinsics
 
 __all__ = ["MIN_IMAGES", "BoardView", "CameraCalibration", "calibrate_images", "find_board",
@@ -180,10 +181,4 @@ def plot_calibration(cal: CameraCalibration, out: str | Path) -> None:
     ax.set_title(f"fx {i.fx:.1f}  fy {i.fy:.1f}  cx {i.cx:.1f}  cy {i.cy:.1f}  "
                  f"RMS {cal.rms_px:.3f} px")
     ax.legend(fontsize=6, loc="upper right", ncol=2)
-    fig.tight_layout()
-    try:
-        fig.savefig(str(out))
-    except OSError as exc:
-        raise InputError(f"cannot write the plot: {exc}", file=str(out)) from None
-    finally:
-        plt.close(fig)
+    save_figure(fig, out)
