@@ -26,8 +26,9 @@ Definitions (issue 11):
   ``out_of_order`` — crossed only before the previous waypoint's pass, or only after the next
   course mark was crossed (for these two, only crossings within :data:`ORDER_RADIUS_MM` count,
   and not the next mark's when it is also the previous one: going round the mark just passed);
-  ``off_course`` — another mark of the same colour (not this waypoint's mark) was passed closer
-  than this one within the window: the robot went round the wrong mark;
+  ``off_course`` — another mark of the same colour (not this waypoint's mark, nor the previous or
+  next waypoint's) was passed closer than this one within the window: the robot went round the
+  wrong mark;
   ``wrong_side`` — the side at closest approach is not the waypoint's side;
   ``passed`` — all is well. A run's route is true only if every waypoint is ``passed``.
 """
@@ -227,8 +228,11 @@ def course_truth(
         else:
             verdict, detail = ("passed", "") if side == sides[w] else (
                 "wrong_side", f"passed on its {side} at {closest.lateral_mm:.0f} mm")
+            # The adjacent waypoints' own marks are not rivals: their passes bound the window,
+            # and a path that wiggles past the mark just passed re-crosses its line just inside.
+            adjacent = {marks[k] for k in (w - 1, w + 1) if 0 <= k < len(marks)}
             for j, other in enumerate(world.marks):
-                if j == mi or other.colour != mark.colour:
+                if j == mi or j in adjacent or other.colour != mark.colour:
                     continue
                 rivals = [c for c in crossings(j) if lo < c.t < hi]
                 if rivals and min(c.lateral_mm for c in rivals) < closest.lateral_mm:

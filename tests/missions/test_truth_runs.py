@@ -66,7 +66,7 @@ def test_a_really_skipped_mark_is_reported_skipped(
     assert report["outcome"] == "failed"
     wps = report["waypoints"]
     assert wps[3]["truth"] == "skipped" and wps[3]["mark"] == {
-        "index": 3, "x_mm": 3000, "y_mm": -2000}
+        "index": 3, "x_mm": 6000, "y_mm": -6000}
     assert [w["truth"] for w in wps[:3]] == ["passed"] * 3
     assert recheck(report, SKIP_WORLD)[3] == "skipped"
     rr = RunReport(mission="zigzag", outcome=report["outcome"], reason=report["reason"],
