@@ -1,7 +1,5 @@
 """``python -m marknav`` is the same as the ``marknav`` command."""
 
-import sys
+from marknav.cli import entry
 
-from marknav.cli import main
-
-sys.exit(main())
+entry()

@@ -78,7 +78,8 @@ def configure_logging(verbosity: int) -> None:
         (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbosity, 2)])
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def main(argv: Sequence[str] | None = None, *, exiting: bool = False) -> int:
+    """Run one command; ``exiting``: the process ends after it (the console entry point)."""
     from marknav import signals
 
     signals.install()  # first: a signal while importing the commands is already handled
@@ -88,7 +89,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("marknav: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     finally:
-        signals.uninstall()
+        signals.uninstall(exiting=exiting)
+
+
+def entry() -> None:
+    """The ``marknav`` console script and ``python -m marknav``."""
+    sys.exit(main(exiting=True))
 
 
 def _main(argv: Sequence[str] | None) -> int:

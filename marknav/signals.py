@@ -86,11 +86,13 @@ def install() -> bool:
     return True
 
 
-def uninstall() -> None:
-    """Give the signals back to whoever had them before :func:`install`."""
+def uninstall(*, exiting: bool = False) -> None:
+    """Give the signals back to whoever had them before :func:`install` — or, when the process
+    is ``exiting`` (the command line's own entry point), ignore them: a second Ctrl-C that
+    arrives while the interpreter shuts down must not turn exit 130 into death by signal."""
     if _state.installed and _main_thread():
         for s, previous in _state.previous.items():
-            signal.signal(s, previous)
+            signal.signal(s, signal.SIG_IGN if exiting else previous)
         _state.installed = False
         _state.previous = {}
 
