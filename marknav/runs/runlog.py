@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 import py_trees
 
+from marknav import signals
 from marknav.behaviours import keys
 from marknav.errors import InputError
 from marknav.runs.report import EventLog, RunReport
@@ -140,10 +141,12 @@ class Recorder:
             bb = self._blackboard()
             if bb:
                 record["bb"] = bb
-            for fr, image in frames:
-                self._save_image(now, fr, image)
-                self.events.write(now, "frame", **fr)
-            self.events.write(now, "tick", **record)
+            # A tick's frames and the tick itself go in together: a signal cannot split them.
+            with signals.deferred():
+                for fr, image in frames:
+                    self._save_image(now, fr, image)
+                    self.events.write(now, "frame", **fr)
+                self.events.write(now, "tick", **record)
             for sink in self.sinks:
                 sink.tick(now, record, frames, self.state)
         if self.view is not None:
