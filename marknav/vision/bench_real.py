@@ -26,7 +26,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from marknav.vision.bench import Image, match_marks
+from marknav.vision.bench import Image, match_marks, plain_hough, to_hsv
 from marknav.vision.composite import COMPOSITE_PALETTE, composite_frames, load_photos
 from marknav.vision.detect import Detector, DetectorConfig, Mark
 from marknav.vision.palette import ColourRange, Palette
@@ -153,14 +153,7 @@ def _timings(frames: Sequence[Image], detect: Callable[[Image], object],
              repeats: int, hough_frames: int | None = None) -> dict[str, float | None]:
     """Per-frame timings (ms) interleaved; plain Hough on the first ``hough_frames`` frames
     only (None: all), once: on textured photographs it takes seconds a frame."""
-    def hough(img: Image) -> object:
-        grey = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
-        return cv2.HoughCircles(grey, cv2.HOUGH_GRADIENT, dp=1, minDist=20, param1=100,
-                                param2=30, minRadius=10, maxRadius=80)
-
-    def hsv(img: Image) -> object:
-        return cv2.cvtColor(img, cv2.COLOR_BGR2HSV)
-
+    hough, hsv = plain_hough, to_hsv
     det_t: list[float] = []
     hough_t: list[float] = []
     hsv_t: list[float] = []
