@@ -63,10 +63,19 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class _StderrHandler(logging.StreamHandler):
+    """Writes to whatever ``sys.stderr`` is when a record arrives (rich's proxy under the live
+    view, a caller's capture), never to a stream that has since been closed."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.stream = sys.stderr
+        super().emit(record)
+
+
 def configure_logging(verbosity: int) -> None:
     """Log to stderr: marknav's loggers at WARNING, INFO (-v) or DEBUG (-vv); other libraries'
     (transitions logs every state callback at INFO) stay at WARNING unless -vv."""
-    handler = logging.StreamHandler(sys.stderr)
+    handler = _StderrHandler(sys.stderr)
     handler.setFormatter(logging.Formatter("%(levelname)s %(name)s: %(message)s"))
     handler._marknav = True  # type: ignore[attr-defined]
     root = logging.getLogger()
