@@ -51,15 +51,16 @@ MODULES: dict[str, Module] = {
         "tests/behaviours/test_bypass.py", "tests/behaviours/test_bypass_edges.py",
         "tests/behaviours/test_route.py")),
     "oi": Module("marknav/drivers/oi.py", (
-        "tests/drivers/test_oi.py", "tests/drivers/test_stream.py",
-        "tests/drivers/test_driver.py")),
+        "tests/drivers/test_oi.py", "tests/drivers/test_oi_edges.py",
+        "tests/drivers/test_stream.py", "tests/drivers/test_driver.py")),
     "driver": Module("marknav/drivers/driver.py", (
         "tests/drivers/test_driver.py", "tests/drivers/test_driver_odometry.py")),
     "safety": Module("marknav/drivers/safety.py", (
         "tests/drivers/test_safety.py", "tests/behaviours/test_safety.py",
         "tests/testing/test_fake_robot.py", "tests/drivers/test_driver.py")),
     # the ground truth per waypoint, from the true path alone
-    "truth": Module("marknav/sim/truth.py", ("tests/sim/test_truth.py",)),
+    "truth": Module("marknav/sim/truth.py", (
+        "tests/sim/test_truth.py", "tests/sim/test_truth_edges.py")),
     # the evaluation's verdict and statistics (not its process pool or its text)
     "verdict": Module("marknav/runs/evaluate.py", (
         "tests/runs/test_evaluate.py", "tests/missions/test_truth_runs.py"),
@@ -80,6 +81,8 @@ def config(module: Module) -> str:
     return (
         "[tool.mutmut]\n"
         'source_paths = ["marknav"]\n'
+        # the run tests read the packaged missions (relative to the checkout)
+        'also_copy = ["missions"]\n'
         f'only_mutate = ["{module.path}"]\n'
         f"pytest_add_cli_args_test_selection = [{tests}]\n"
         f'pytest_add_cli_args = ["-p", "no:cacheprovider", "-k", "{DESELECT}"]\n'
