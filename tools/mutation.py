@@ -1,6 +1,8 @@
 """Mutation testing of the modules where a silent bug is dangerous, one module at a time.
 
     nice -n 10 python tools/mutation.py safety          # one module (see MODULES)
+    nice -n 10 python tools/mutation.py driver --only 'marknav.drivers.driver.xǁCreateDriverǁclose*'
+                                                        # only these mutants (fnmatch patterns)
     nice -n 10 python tools/mutation.py --all           # every module, smallest first
     python tools/mutation.py safety --report            # score + survivors of the last run
 
@@ -23,7 +25,7 @@ import shutil
 import subprocess
 import sys
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -54,7 +56,8 @@ MODULES: dict[str, Module] = {
         "tests/drivers/test_oi.py", "tests/drivers/test_oi_edges.py",
         "tests/drivers/test_stream.py", "tests/drivers/test_driver.py")),
     "driver": Module("marknav/drivers/driver.py", (
-        "tests/drivers/test_driver.py", "tests/drivers/test_driver_odometry.py")),
+        "tests/drivers/test_driver.py", "tests/drivers/test_driver_lifecycle.py",
+        "tests/drivers/test_driver_odometry.py")),
     "safety": Module("marknav/drivers/safety.py", (
         "tests/drivers/test_safety.py", "tests/behaviours/test_safety.py",
         "tests/testing/test_fake_robot.py", "tests/drivers/test_driver.py")),
@@ -63,7 +66,8 @@ MODULES: dict[str, Module] = {
         "tests/sim/test_truth.py", "tests/sim/test_truth_edges.py")),
     # the evaluation's verdict and statistics (not its process pool or its text)
     "verdict": Module("marknav/runs/evaluate.py", (
-        "tests/runs/test_evaluate.py", "tests/missions/test_truth_runs.py"),
+        "tests/runs/test_evaluate.py", "tests/runs/test_verdict_edges.py",
+        "tests/missions/test_truth_runs.py"),
         only=("marknav.runs.evaluate.xǁSeedResultǁ*",
               "marknav.runs.evaluate.x_summarise*",
               "marknav.runs.evaluate.x_wilson_interval*",
@@ -131,7 +135,8 @@ def prepare(name: str, module: Module) -> Path:
 
 def run(name: str, module: Module, children: int) -> int:
     """Check the mutants not checked yet, then re-check the survivors of earlier runs (mutmut
-    keeps a verdict until asked again by name, and the tests may have changed since)."""
+    keeps a verdict until asked again by name, and the tests may have changed since). With name
+    patterns (``only``), check exactly the mutants they match."""
     work = prepare(name, module)
     env = {**os.environ, "PY_TREES_DISABLE_COLORS": "1"}
     mutmut = shutil.which("mutmut") or str(Path(sys.executable).with_name("mutmut"))
@@ -208,6 +213,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--report", action="store_true", help="only report the last run")
     parser.add_argument("--json", action="store_true", help="the report as JSON")
     parser.add_argument("--max-children", type=int, default=2, help="parallel mutants (2)")
+    parser.add_argument("--only", action="append", default=[], metavar="PATTERN",
+                        help="check (and report) only the mutants matching this mutmut name "
+                             "pattern, e.g. 'marknav.drivers.oi.x_command_length__mutmut_*' "
+                             "(repeatable; one module)")
     args = parser.parse_args(argv)
     names = list(MODULES) if args.all else args.modules
     if not names:
@@ -215,11 +224,16 @@ def main(argv: list[str] | None = None) -> int:
     unknown = [n for n in names if n not in MODULES]
     if unknown:
         parser.error(f"unknown module {unknown[0]!r} (one of: {', '.join(MODULES)})")
+    if args.only and len(names) != 1:
+        parser.error("--only needs exactly one module")
     results = []
     for name in names:
+        module = MODULES[name]
+        if args.only:
+            module = replace(module, only=tuple(args.only))
         if not args.report:
-            run(name, MODULES[name], args.max_children)
-        result = report(name, MODULES[name])
+            run(name, module, args.max_children)
+        result = report(name, module)
         results.append(result)
         if not args.json:
             print(f"{name} ({result['module']}): {result['killed']}/{result['judged']} killed, "

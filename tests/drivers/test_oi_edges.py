@@ -56,6 +56,9 @@ def test_a_wrong_length_header_is_dropped_as_soon_as_its_length_byte_arrives() -
     assert parser.pending == 2
     (frame,) = parser.feed(SPEC_FRAME[2:])
     assert frame.offset == 2 and parser.pending == 0
+    # garbage, then a wrong-length header: every byte of both is counted
+    assert parser.feed(b"\x01\x02" + bytes([19, 99])) == []
+    assert (parser.pending, parser.skipped_bytes) == (0, 2 + 4)
 
 
 def test_skipped_bytes_add_up_over_every_run_of_garbage() -> None:
