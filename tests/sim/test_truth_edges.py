@@ -225,3 +225,41 @@ def test_the_previous_waypoints_mark_crossed_again_is_no_rival() -> None:
                 (-300, 5000), (-300, 8500))
     out = course_truth(t, p, w, ["red"] * 3, ["left"] * 3)
     assert [m.truth for m in out] == ["passed", "passed", "passed"]
+
+
+def test_a_gate_of_two_level_marks_is_passed_through_in_order() -> None:
+    # red and green side by side, the robot between them: both are crossed at the same instant,
+    # which is no reason to call the second "passed only before the previous waypoint's mark"
+    # (found through a surviving mutant of the "after the previous pass" test; the same mark
+    # twice in a row still needs two passes)
+    t, p = line(0.0, 0.0, 3000.0)
+    gate = world(("red", -300, 1500), ("green", 300, 1500))
+    out = course_truth(t, p, gate, ["red", "green"], ["right", "left"])
+    assert [(m.truth, m.passed_on, m.t_pass) for m in out] == [
+        ("passed", "right", 7.5), ("passed", "left", 7.5)]
+    # a gate followed by a third mark: nothing is late either
+    three = world(("red", -300, 1500), ("green", 300, 1500), ("blue", -300, 2500))
+    assert [m.truth for m in course_truth(t, p, three, ["red", "green", "blue"],
+                                          ["right", "left", "right"])] == ["passed"] * 3
+    twice = world(("red", -300, 1500), course=(0, 0))
+    assert [m.truth for m in course_truth(t, p, twice, ["red", "red"], ["right", "right"])] == [
+        "passed", "out_of_order"]
+
+
+def test_rivals_crossed_at_the_window_bounds_do_not_count() -> None:
+    # the window is exclusive at both ends: an off-course red level with the previous course
+    # mark (crossed at the instant of its pass) is no rival of the next waypoint
+    t, p = line(500.0, 0.0, 4000.0)
+    w = world(("red", 0, 1500), ("red", 2000, 3000), ("red", 1000, 1500), course=(0, 1))
+    out = course_truth(t, p, w, ["red", "red"], ["right", "left"])
+    assert [m.truth for m in out] == ["passed", "passed"]
+    # ... nor one level with the next course mark, of the waypoint before it
+    w = world(("red", 2000, 1500), ("red", 0, 3000), ("red", 1000, 3000), course=(0, 1))
+    out = course_truth(t, p, w, ["red", "red"], ["left", "right"])
+    assert [m.truth for m in out] == ["passed", "passed"]
+
+
+def test_a_mark_truth_names_its_mark() -> None:
+    (out,) = course_truth(*line(-300.0, 0.0, 3000.0), world(("red", 10, 1500)), ["red"],
+                          ["left"])
+    assert out.mark_dict() == {"index": 0, "x_mm": 10, "y_mm": 1500}
