@@ -263,3 +263,13 @@ def test_a_mark_truth_names_its_mark() -> None:
     (out,) = course_truth(*line(-300.0, 0.0, 3000.0), world(("red", 10, 1500)), ["red"],
                           ["left"])
     assert out.mark_dict() == {"index": 0, "x_mm": 10, "y_mm": 1500}
+
+
+def test_the_next_waypoints_mark_crossed_early_but_far_is_no_rival() -> None:
+    # red 1 is passed 1.5 m away; on the way the robot crossed red 2's line 1.3 m away (too far
+    # to say it went out of order), and went back round red 2 at 300 mm after red 1: the next
+    # waypoint's own mark is not an off-course mark of this one
+    w = world(("red", 1500, 3000), ("red", -1300, 1000))
+    t, p = legs((0, 0), (0, 3500), (-1600, 3500), (-1600, 0))
+    out = course_truth(t, p, w, ["red", "red"], ["left", "right"])
+    assert [(m.truth, m.passed_on) for m in out] == [("passed", "left"), ("passed", "right")]
