@@ -83,6 +83,8 @@ def test_from_a_report_keeps_every_field() -> None:
         4, 60, 2, "missions/x.yaml", 320.0, 1)
     assert r.waypoints == (WaypointTruth("red", "right", "passed", "left", 280.0, "wrong_side",
                                          None, "passed on its left at 280 mm"),)
+    bare = SeedResult.from_report(4, rep)  # no mission spec or clearance given
+    assert (bare.mission, bare.clearance_mm) == ("", None)
 
 
 def incidents(*results: SeedResult, clearance_mm: float = 300.0) -> dict[int, list[str]]:
