@@ -37,6 +37,9 @@ class Port:
         self.polls = 0
         self.closed = 0
         self.fail_writes: BaseException | None = None
+        self.writes = 0
+        #: the writes after this many fail (a port that dies in the middle of close())
+        self.fail_after_writes: int | None = None
         self.step_on_read: int | None = None
 
     @property
@@ -52,6 +55,9 @@ class Port:
     def write(self, data: bytes, /) -> int | None:
         if self.fail_writes is not None:
             raise self.fail_writes
+        if self.fail_after_writes is not None and self.writes >= self.fail_after_writes:
+            raise SerialException("device disconnected")
+        self.writes += 1
         return self._port.write(data)
 
     def reset_input_buffer(self) -> None:
@@ -194,3 +200,15 @@ def test_close_sends_its_three_commands_then_closes_the_port(robot: Robot) -> No
     assert tail[-3:] == [(Opcode.DRIVE_DIRECT, bytes(4)), (Opcode.PAUSE_RESUME_STREAM, b"\x00"),
                          (Opcode.START, b"")]
     assert robot.ports[0].closed == 1
+
+
+def test_close_releases_the_port_when_it_dies_between_two_of_closes_writes(robot: Robot) -> None:
+    driver = robot.driver()
+    driver.connect()
+    port = robot.ports[0]
+    n = len(robot.sim.commands)
+    port.fail_after_writes = port.writes + 2  # the two zero Drive Directs go out, then nothing
+    driver.close()
+    sent = [c.opcode for c in list(robot.sim.commands)[n:]]
+    assert sent == [Opcode.DRIVE_DIRECT, Opcode.DRIVE_DIRECT]
+    assert port.closed == 1 and driver.link_error is not None and not driver.connected
