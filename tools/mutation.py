@@ -134,8 +134,9 @@ def prepare(name: str, module: Module) -> Path:
 
 
 def run(name: str, module: Module, children: int) -> int:
-    """Check the mutants not checked yet, then re-check the survivors of earlier runs (mutmut
-    keeps a verdict until asked again by name, and the tests may have changed since). With name
+    """Check the mutants not checked yet, then re-check the survivors (and the untested) of
+    earlier runs (mutmut keeps a verdict until asked again by name, and the tests may have
+    changed since). With name
     patterns (``only``), check exactly the mutants they match."""
     work = prepare(name, module)
     env = {**os.environ, "PY_TREES_DISABLE_COLORS": "1"}
@@ -161,7 +162,8 @@ def _survivor_keys(meta: Path, module: Module) -> list[str]:
     from fnmatch import fnmatchcase
 
     codes: dict[str, int | None] = json.loads(meta.read_text("utf-8"))["exit_code_by_key"]
-    return [k for k, c in codes.items() if c == 0
+    # survived (0), or no test called it (5, 33): a new test may kill it now
+    return [k for k, c in codes.items() if c in (0, 5, 33)
             and (not module.only or any(fnmatchcase(k, p) for p in module.only))]
 
 

@@ -273,3 +273,24 @@ def test_the_next_waypoints_mark_crossed_early_but_far_is_no_rival() -> None:
     t, p = legs((0, 0), (0, 3500), (-1600, 3500), (-1600, 0))
     out = course_truth(t, p, w, ["red", "red"], ["left", "right"])
     assert [(m.truth, m.passed_on) for m in out] == [("passed", "left"), ("passed", "right")]
+
+
+def test_a_mark_passed_in_a_gate_with_the_waypoint_two_back_was_passed_before_the_previous() -> None:
+    # course red, blue, green; red and green side by side (crossed at one instant), blue later:
+    # blue is no later than its predecessor's pass, and green came before blue
+    w = world(("red", -300, 1500), ("green", 300, 1500), ("blue", -300, 3000))
+    t, p = line(0.0, 0.0, 4000.0)
+    out = course_truth(t, p, w, ["red", "blue", "green"], ["right", "right", "left"],
+                       course=[0, 2, 1])
+    assert [(m.truth, m.detail) for m in out] == [
+        ("passed", ""), ("passed", ""),
+        ("out_of_order", "passed only before the previous waypoint's mark")]
+
+
+def test_the_same_mark_twice_is_judged_from_its_second_pass_only() -> None:
+    # course red, red: passed 300 mm on its left, then round and 500 mm on its right; the
+    # second waypoint's window starts at the first pass, exclusive
+    w = world(("red", 0, 1500), course=(0, 0))
+    t, p = legs((-300, 0), (-300, 2500), (2600, 2500), (2600, 0), (500, 0), (500, 3000))
+    out = course_truth(t, p, w, ["red", "red"], ["left", "right"])
+    assert [(m.truth, m.passed_on) for m in out] == [("passed", "left"), ("passed", "right")]
