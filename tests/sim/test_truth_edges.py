@@ -275,7 +275,7 @@ def test_the_next_waypoints_mark_crossed_early_but_far_is_no_rival() -> None:
     assert [(m.truth, m.passed_on) for m in out] == [("passed", "left"), ("passed", "right")]
 
 
-def test_a_mark_passed_in_a_gate_with_the_waypoint_two_back_was_passed_before_the_previous() -> None:
+def test_a_mark_in_a_gate_with_the_waypoint_two_back_was_passed_before_the_previous() -> None:
     # course red, blue, green; red and green side by side (crossed at one instant), blue later:
     # blue is no later than its predecessor's pass, and green came before blue
     w = world(("red", -300, 1500), ("green", 300, 1500), ("blue", -300, 3000))
