@@ -346,3 +346,15 @@ def test_select_prefers_a_remembered_mark_much_nearer_than_the_one_in_view_off_t
     past = known(1000.0 + 1501.0 * math.cos(0.3), 1000.0 + 1501.0 * math.sin(0.3))
     chosen = select(rig, robot=robot, marks=[far], memory=[past])
     assert not chosen.remembered and chosen.sighting == far
+
+
+def test_a_remembered_target_is_recognised_once_centred_from_anywhere():
+    # the robot at (1000, 500) facing 45°, the remembered mark 1 m straight ahead: recognised;
+    # turned 30° away from it: not yet
+    here = Pose(1000.0, 500.0, math.pi / 4)
+    ahead = (1000.0 + 1000.0 * math.cos(math.pi / 4), 500.0 + 1000.0 * math.sin(math.pi / 4))
+    memory = target(remembered=True, world_x=ahead[0], world_y=ahead[1])
+    sighting = seen_from(here, "red", ahead[0] + 30.0, ahead[1])
+    assert associate([sighting], memory, (), here) == sighting
+    turned = Pose(here.x, here.y, here.theta + math.radians(30.0))
+    assert associate([seen_from(turned, "red", *ahead)], memory, (), turned) is None
