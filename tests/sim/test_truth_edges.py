@@ -294,3 +294,15 @@ def test_the_same_mark_twice_is_judged_from_its_second_pass_only() -> None:
     t, p = legs((-300, 0), (-300, 2500), (2600, 2500), (2600, 0), (500, 0), (500, 3000))
     out = course_truth(t, p, w, ["red", "red"], ["left", "right"])
     assert [(m.truth, m.passed_on) for m in out] == [("passed", "left"), ("passed", "right")]
+
+
+def test_a_crossing_at_the_next_pass_is_outside_the_window() -> None:
+    # red passed 400 mm away with it on the robot's right; round far below, then up through a
+    # red|green gate: red's line is crossed again (200 mm, its other side) at the very instant
+    # of green's first pass — that crossing is at the end of red's window, which is exclusive
+    w = world(("red", -300, 1500), ("green", 300, 1500))
+    t, p = legs((-100, 1100), (-1800, 1100), (-1800, -1000), (-100, -1000), (-100, 2500))
+    out = course_truth(t, p, w, ["red", "green"], ["left", "left"])
+    assert [(m.truth, m.passed_on) for m in out] == [("passed", "left"), ("passed", "left")]
+    assert out[0].t_pass is not None and out[1].t_pass is not None
+    assert out[0].t_pass < out[1].t_pass
