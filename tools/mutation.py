@@ -1,6 +1,8 @@
 """Mutation testing of the modules where a silent bug is dangerous, one module at a time.
 
     nice -n 10 python tools/mutation.py safety          # one module (see MODULES)
+    nice -n 10 python tools/mutation.py driver --only 'marknav.drivers.driver.xǁCreateDriverǁclose*'
+                                                        # only these mutants (fnmatch patterns)
     nice -n 10 python tools/mutation.py --all           # every module, smallest first
     python tools/mutation.py safety --report            # score + survivors of the last run
 
@@ -23,7 +25,7 @@ import shutil
 import subprocess
 import sys
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -51,18 +53,21 @@ MODULES: dict[str, Module] = {
         "tests/behaviours/test_bypass.py", "tests/behaviours/test_bypass_edges.py",
         "tests/behaviours/test_route.py")),
     "oi": Module("marknav/drivers/oi.py", (
-        "tests/drivers/test_oi.py", "tests/drivers/test_stream.py",
-        "tests/drivers/test_driver.py")),
+        "tests/drivers/test_oi.py", "tests/drivers/test_oi_edges.py",
+        "tests/drivers/test_stream.py", "tests/drivers/test_driver.py")),
     "driver": Module("marknav/drivers/driver.py", (
-        "tests/drivers/test_driver.py", "tests/drivers/test_driver_odometry.py")),
+        "tests/drivers/test_driver.py", "tests/drivers/test_driver_lifecycle.py",
+        "tests/drivers/test_driver_odometry.py")),
     "safety": Module("marknav/drivers/safety.py", (
         "tests/drivers/test_safety.py", "tests/behaviours/test_safety.py",
         "tests/testing/test_fake_robot.py", "tests/drivers/test_driver.py")),
     # the ground truth per waypoint, from the true path alone
-    "truth": Module("marknav/sim/truth.py", ("tests/sim/test_truth.py",)),
+    "truth": Module("marknav/sim/truth.py", (
+        "tests/sim/test_truth.py", "tests/sim/test_truth_edges.py")),
     # the evaluation's verdict and statistics (not its process pool or its text)
     "verdict": Module("marknav/runs/evaluate.py", (
-        "tests/runs/test_evaluate.py", "tests/missions/test_truth_runs.py"),
+        "tests/runs/test_evaluate.py", "tests/runs/test_verdict_edges.py",
+        "tests/missions/test_truth_runs.py"),
         only=("marknav.runs.evaluate.xǁSeedResultǁ*",
               "marknav.runs.evaluate.x_summarise*",
               "marknav.runs.evaluate.x_wilson_interval*",
@@ -80,6 +85,8 @@ def config(module: Module) -> str:
     return (
         "[tool.mutmut]\n"
         'source_paths = ["marknav"]\n'
+        # the run tests read the packaged missions (relative to the checkout)
+        'also_copy = ["missions"]\n'
         f'only_mutate = ["{module.path}"]\n'
         f"pytest_add_cli_args_test_selection = [{tests}]\n"
         f'pytest_add_cli_args = ["-p", "no:cacheprovider", "-k", "{DESELECT}"]\n'
@@ -127,8 +134,10 @@ def prepare(name: str, module: Module) -> Path:
 
 
 def run(name: str, module: Module, children: int) -> int:
-    """Check the mutants not checked yet, then re-check the survivors of earlier runs (mutmut
-    keeps a verdict until asked again by name, and the tests may have changed since)."""
+    """Check the mutants not checked yet, then re-check the survivors (and the untested) of
+    earlier runs (mutmut keeps a verdict until asked again by name, and the tests may have
+    changed since). With name
+    patterns (``only``), check exactly the mutants they match."""
     work = prepare(name, module)
     env = {**os.environ, "PY_TREES_DISABLE_COLORS": "1"}
     mutmut = shutil.which("mutmut") or str(Path(sys.executable).with_name("mutmut"))
@@ -153,7 +162,8 @@ def _survivor_keys(meta: Path, module: Module) -> list[str]:
     from fnmatch import fnmatchcase
 
     codes: dict[str, int | None] = json.loads(meta.read_text("utf-8"))["exit_code_by_key"]
-    return [k for k, c in codes.items() if c == 0
+    # survived (0), or no test called it (5, 33): a new test may kill it now
+    return [k for k, c in codes.items() if c in (0, 5, 33)
             and (not module.only or any(fnmatchcase(k, p) for p in module.only))]
 
 
@@ -205,6 +215,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--report", action="store_true", help="only report the last run")
     parser.add_argument("--json", action="store_true", help="the report as JSON")
     parser.add_argument("--max-children", type=int, default=2, help="parallel mutants (2)")
+    parser.add_argument("--only", action="append", default=[], metavar="PATTERN",
+                        help="check (and report) only the mutants matching this mutmut name "
+                             "pattern, e.g. 'marknav.drivers.oi.x_command_length__mutmut_*' "
+                             "(repeatable; one module)")
     args = parser.parse_args(argv)
     names = list(MODULES) if args.all else args.modules
     if not names:
@@ -212,11 +226,16 @@ def main(argv: list[str] | None = None) -> int:
     unknown = [n for n in names if n not in MODULES]
     if unknown:
         parser.error(f"unknown module {unknown[0]!r} (one of: {', '.join(MODULES)})")
+    if args.only and len(names) != 1:
+        parser.error("--only needs exactly one module")
     results = []
     for name in names:
+        module = MODULES[name]
+        if args.only:
+            module = replace(module, only=tuple(args.only))
         if not args.report:
-            run(name, MODULES[name], args.max_children)
-        result = report(name, MODULES[name])
+            run(name, module, args.max_children)
+        result = report(name, module)
         results.append(result)
         if not args.json:
             print(f"{name} ({result['module']}): {result['killed']}/{result['judged']} killed, "

@@ -185,7 +185,10 @@ def course_truth(
     t_prev = t_start
     t_prev_prev = t_start
     for w, mi in enumerate(marks):
-        after = [c for c in crossings(mi) if c.t > t_prev]
+        # (A mark level with the previous waypoint's — a gate — is crossed at the very time of
+        # that pass; the same mark again is not.)
+        after = [c for c in crossings(mi)
+                 if c.t > t_prev or (c.t == t_prev and w > 0 and mi != marks[w - 1])]
         if not after:
             passes.append(None)
             before = [c for c in crossings(mi)

@@ -232,3 +232,136 @@ def test_a_bypass_on_a_slanted_course_passes_on_the_required_side(rig, colour, s
     (passed,) = rig.bb(keys.PASSED)
     assert (passed.colour, passed.mark_x, passed.mark_y) == (
         colour, pytest.approx(mark[0]), pytest.approx(mark[1]))
+
+
+# -- setup without a mission: which setting is missing, by name -----------------------------------
+
+_SETUP_HINT = ": pass it to the constructor or set the tree up with tree.setup(mission=...)"
+
+
+@pytest.mark.parametrize(("kwargs", "missing"), [
+    ({}, "clearance_mm"),
+    ({"clearance_mm": 300.0}, "bypass speed"),
+    ({"clearance_mm": 300.0, "speed_mm_s": 150.0}, "lookahead_mm"),
+    # every constructor setting given: the mark radius has no constructor override
+    ({"clearance_mm": 300.0, "speed_mm_s": 150.0, "lookahead_mm": 100.0, "exit_mm": 50.0,
+      "margin_mm": 0.0}, "marks.radius_mm"),
+])
+def test_setup_without_a_mission_names_the_first_missing_setting(
+        manual_clock, fake_robot, blackboard, kwargs, missing):
+    node = BezierBypass(**kwargs)
+    with pytest.raises(SetupError) as exc:
+        py_trees.trees.BehaviourTree(node).setup(robot=fake_robot, clock=manual_clock)
+    assert type(exc.value) is SetupError
+    assert str(exc.value) == f"BezierBypass 'Bypass': no {missing}{_SETUP_HINT}"
+    assert node.settings == {}
+
+
+# -- what a plan record says ----------------------------------------------------------------------
+
+
+def test_a_plan_record_names_the_waypoint_colour_and_side(rig):
+    BB.set(keys.TARGET, keys.Target(waypoint=2, waypoint_id="waypoint-2-green", colour="green",
+                                    side="right", world_x=0.0, world_y=900.0))
+    rig.clock.advance(1.25)
+    tree, _ = alone(rig)
+    tree.tick()
+    (record,) = rig.bb(keys.PLANS)
+    assert (record.waypoint, record.colour, record.side, record.t, record.reason) == (
+        2, "green", "right", 1.25, "initial")
+
+
+# -- the planning range from a start off the origin ----------------------------------------------
+
+
+def test_the_planning_range_is_measured_from_where_the_robot_is(rig):
+    # the robot at (1500, 2000) with the mark 1 m ahead: a sighting from 950 mm (95 % of the
+    # planning range) confirms nothing and re-plans nothing; from under 900 mm it re-plans
+    start = Pose(1500.0, 2000.0, math.pi / 2)
+    rig.robot = FakeRobot(clock=rig.clock, pose=start)
+    mark = (1550.0, 2998.75)  # 1000 mm from the start
+    BB.set(keys.TARGET, red_target(world_x=mark[0], world_y=mark[1],
+                                   sighting=sighting_of(rig, *mark)))
+    tree, node = alone(rig, replan_min_shift_mm=20.0)
+    tree.tick()
+
+    def drive_until_range_below(limit: float) -> None:
+        for _ in range(200):
+            p = rig.robot.pose()
+            if math.hypot(mark[0] - p.x, mark[1] - p.y) < limit:
+                return
+            rig.clock.advance(0.05)
+            tree.tick()
+        raise AssertionError("never got near enough")
+
+    def see(x: float, y: float) -> None:
+        rig.clock.advance(0.05)
+        BB.set(keys.TARGET, red_target(world_x=x, world_y=y, sighting=sighting_of(rig, x, y),
+                                       locked=True))
+        tree.tick()
+
+    drive_until_range_below(955.0)
+    see(mark[0] + 60.0, mark[1])
+    assert node.replans == 0 and node.status == Status.RUNNING
+    drive_until_range_below(880.0)
+    see(mark[0] + 60.0, mark[1])
+    assert node.replans == 1
+
+
+# -- the end of the bypass -----------------------------------------------------------------------
+
+
+def test_without_a_run_out_the_bypass_ends_just_short_of_the_marks_line(rig):
+    # exit_mm = 0: the path ends beside the mark, and the bypass ends when the tracker reaches
+    # that end (within its goal tolerance) with the mark on the required side — the robot's
+    # centre still short of the mark's line: "beside or behind" is not required strictly here
+    rig.perception.place("red", x_mm=0.0, y_mm=900.0)
+    node = BezierBypass(margin_mm=0.0, exit_mm=0.0)
+    root = py_trees.composites.Sequence("Root", memory=False, children=[
+        rig.perception, py_trees.composites.Sequence("Pass", memory=True, children=[
+            SelectTarget(colour="red", waypoint=0), node])])
+    tree = rig.tree(root)
+    log = rig.run(tree, max_ticks=300)
+    assert log.reached and node.status == Status.SUCCESS
+    (plan,) = rig.bb(keys.PLANS)
+    end = rig.robot.pose()
+    assert -200.0 < behind_of(end, (0.0, 900.0), plan.plan.course) < 0.0
+    assert lateral_of(end, (0.0, 900.0), plan.plan.course) < -250.0
+
+
+@pytest.mark.parametrize(("along", "status"), [(-20.0, Status.SUCCESS), (40.0, Status.FAILURE)])
+def test_resumed_beside_the_mark_on_a_slanted_course_off_the_origin(rig, along, status):
+    # as test_resumed_beside_the_mark_it_counts_as_passed_once, the robot at (200, -100) facing
+    # 35°: the mark 320 mm to its right and 20 mm behind is passed; 40 mm ahead it is not yet
+    heading = math.radians(35.0)
+    here = Pose(200.0, -100.0, heading)
+    rig.robot = FakeRobot(clock=rig.clock, pose=here)
+    c, s = math.cos(heading), math.sin(heading)
+    mark = (here.x + along * c + 320.0 * s, here.y + along * s - 320.0 * c)
+    BB.set(keys.TARGET, red_target(world_x=mark[0], world_y=mark[1], locked=True))
+    tree, node = alone(rig)
+    tree.tick()
+    assert node.status == status, node.feedback_message
+    if status == Status.SUCCESS:
+        assert node.feedback_message == "passed red #1 on its left (320 mm beside it)"
+    else:
+        assert node.feedback_message.startswith("cannot bypass red #1: ")
+
+
+def test_the_distance_to_go_shrinks_to_nothing(rig):
+    rig.perception.place("red", x_mm=0.0, y_mm=900.0)
+    node = BezierBypass(margin_mm=0.0)
+    root = py_trees.composites.Sequence("Root", memory=False, children=[
+        rig.perception, py_trees.composites.Sequence("Pass", memory=True, children=[
+            SelectTarget(colour="red", waypoint=0), node])])
+    tree = rig.tree(root)
+    figures = []
+    for _ in range(300):
+        rig.clock.advance(0.05)
+        tree.tick()
+        if node.status != Status.RUNNING:
+            break
+        figures.append(float(node.feedback_message.split(": ")[1].split(" m")[0]))
+    assert node.status == Status.SUCCESS
+    assert figures == sorted(figures, reverse=True) and figures[0] > 1.0
+    assert figures[-1] <= 0.1

@@ -213,3 +213,148 @@ def test_condition_nodes_names_and_messages(rig):
     with pytest.raises(SetupError, match=r"^SelectTarget 'SelectTarget': colour 'purple' is "
                                          r"not in the mission's marks\.colours$"):
         rig.tree(SelectTarget(colour="purple"))
+
+
+# -- the memory's edges: the order of the memory, exact gates, off the origin --------------------
+
+
+def known(x: float, y: float, colour: str = "red", range_mm: float = 1000.0) -> keys.KnownMark:
+    """A mark remembered often enough to be a target."""
+    return keys.KnownMark(colour, x, y, 0.0, range_mm, seen=MEMORY_MIN_SEEN)
+
+
+def seen_from(pose: Pose, colour: str, x: float, y: float, t: float = 0.0) -> keys.SeenMark:
+    """A mark at world (x, y) seen from ``pose``."""
+    from marknav.planning.kinematics import to_robot_frame
+
+    fwd, left = to_robot_frame(pose, (x, y))
+    return keys.SeenMark(colour=colour, forward_mm=fwd, left_mm=left, world_x=x, world_y=y,
+                         x_px=0.0, radius_px=10.0, image_width=640, t=t)
+
+
+@pytest.mark.parametrize(("offset", "near"), [
+    ((2000.0, 0.0), False), ((0.0, 2000.0), False),   # far in one coordinate only: not passed
+    ((250.0, 0.0), True), ((0.0, -250.0), True),      # exactly the gate (250 mm at 1 m): passed
+    ((251.0, 0.0), False)])
+def test_a_remembered_mark_is_left_out_only_when_near_a_passed_one_in_both_coordinates(
+        offset, near):
+    memory = (known(500.0, 1500.0),)
+    passed = [passed_at(500.0 + offset[0], 1500.0 + offset[1])]
+    found = remembered_target(memory, "red", passed, (0.0, 0.0), [])
+    assert (found is None) == near
+
+
+def test_marks_the_memory_skips_do_not_hide_the_ones_after_them():
+    here = (0.0, 0.0)
+    # another colour, one seen too rarely, one near a passed mark, one in view now: each comes
+    # before the answer in the memory and is passed over, not the end of the search
+    answer = known(-400.0, 2500.0)
+    rare = keys.KnownMark("red", 300.0, 900.0, 0.0, 1000.0, seen=MEMORY_MIN_SEEN - 1)
+    assert remembered_target((known(0.0, 800.0, "green"), answer), "red", (), here, []) == answer
+    assert remembered_target((rare, answer), "red", (), here, []) == answer
+    assert remembered_target((known(0.0, 700.0), answer), "red", [passed_at(0.0, 700.0)], here,
+                             []) == answer
+    in_view = [seen("red", 20.0, 1010.0)]
+    assert remembered_target((known(0.0, 1000.0), answer), "red", (), here, in_view) == answer
+
+
+def test_a_sighting_exactly_one_gate_from_a_remembered_mark_is_that_mark_in_view():
+    sighting = seen("red", 0.0, 1000.0)        # 1 m away: gate 250 mm
+    memory = (known(250.0, 1000.0, range_mm=1500.0),)
+    assert remembered_target(memory, "red", (), (0.0, 0.0), [sighting]) is None
+    beyond = (known(250.5, 1000.0, range_mm=1500.0),)
+    assert remembered_target(beyond, "red", (), (0.0, 0.0), [sighting]) == beyond[0]
+
+
+@pytest.mark.parametrize(("a", "b"), [
+    ((0.0, 1000.0), (1500.0, 200.0)),   # nearer by y alone the other one would win
+    ((1000.0, 0.0), (200.0, 1500.0))])  # nearer by x alone the other one would win
+def test_the_nearest_remembered_mark_is_nearest_by_straight_line(a, b):
+    memory = (known(*b), known(*a))
+    assert remembered_target(memory, "red", (), (0.0, 0.0), []).world == a
+
+
+def test_a_turned_robot_misses_a_mark_straight_ahead_not_one_to_the_side():
+    # facing 45°: a mark 1 m straight ahead has dx = dy; the lateral offset is c·dy − s·dx = 0
+    here = Pose(200.0, -100.0, math.pi / 4)
+    ahead = (200.0 + 1000.0 * math.cos(math.pi / 4), -100.0 + 1000.0 * math.sin(math.pi / 4))
+    assert misses(ahead, here) == 1
+    # 1 m along the heading and 600 mm to its left: outside 0.75 × the half view (21.4°)
+    aside = (ahead[0] - 600.0 * math.sin(math.pi / 4), ahead[1] + 600.0 * math.cos(math.pi / 4))
+    assert misses(aside, here) == 0
+
+
+# -- SelectTarget between the memory, the sighting and the passed marks --------------------------
+
+
+def select(rig, *, robot=None, marks=(), passed=(), memory=(), mission=None):
+    """One tick of SelectTarget for red (waypoint 2) on a blackboard holding only these."""
+    import py_trees
+
+    from marknav.behaviours.target import SelectTarget
+
+    py_trees.blackboard.Blackboard.clear()
+    node = SelectTarget(colour="red", waypoint=2)
+    tree = py_trees.trees.BehaviourTree(node)
+    tree.setup(robot=robot or rig.robot, clock=rig.clock, mission=mission or rig.mission)
+    bb = py_trees.blackboard.Blackboard
+    bb.set(keys.MARKS, tuple(marks))
+    bb.set(keys.PASSED, tuple(passed))
+    bb.set(keys.KNOWN, tuple(memory))
+    tree.tick()
+    return bb.get(keys.TARGET)
+
+
+def test_select_skips_a_passed_mark_in_view_for_the_next_one(rig):
+    near, far = seen("red", 0.0, 600.0), seen("red", 300.0, 2000.0)
+    chosen = select(rig, marks=[near, far], passed=[passed_at(10.0, 610.0)])
+    assert chosen.sighting == far and not chosen.remembered
+
+
+def test_select_on_a_figure_eight_may_target_a_mark_passed_before_the_last(rig,
+                                                                           mission_factory):
+    figure_eight = mission_factory(navigation={"revisit_marks": True})
+    first_red, green = passed_at(0.0, 1500.0, i=0), passed_at(0.0, 3000.0, "green", i=1)
+    again = seen("red", 0.0, 1500.0)
+    chosen = select(rig, marks=[again], passed=[first_red, green], mission=figure_eight)
+    assert chosen.sighting == again
+    # without revisiting, the same mark stays passed: nothing to target in view
+    assert select(rig, marks=[again], passed=[first_red, green]).sighting is None
+
+
+def test_select_takes_a_remembered_mark_when_none_is_in_view_and_no_target_was_kept(rig):
+    memory = known(-300.0, 2500.0)
+    chosen = select(rig, memory=[memory])
+    assert chosen.remembered and chosen.world == memory.world and chosen.sighting is None
+
+
+def test_select_prefers_a_remembered_mark_much_nearer_than_the_one_in_view_off_the_origin(
+        rig, manual_clock):
+    from marknav.testing import FakeRobot
+
+    here = Pose(1000.0, 1000.0, math.pi / 2)
+    robot = FakeRobot(clock=manual_clock, pose=here)
+    far = seen_from(here, "red", 1000.0, 3000.0)            # 2 m ahead
+    memory = known(1000.0, 2000.0, range_mm=900.0)
+    chosen = select(rig, robot=robot, marks=[far], memory=[memory])
+    # 1000 mm from the robot, 1500 mm short of the sighting's 2000 − 500: the memory wins
+    assert chosen.remembered and chosen.world == (1000.0, 2000.0)
+    # exactly at the preference boundary (memory 1500 mm away, sighting 2000 mm): still memory;
+    # beyond it, the mark in view
+    edge = known(1000.0, 2500.0, range_mm=900.0)
+    assert select(rig, robot=robot, marks=[far], memory=[edge]).remembered
+    past = known(1000.0 + 1501.0 * math.cos(0.3), 1000.0 + 1501.0 * math.sin(0.3))
+    chosen = select(rig, robot=robot, marks=[far], memory=[past])
+    assert not chosen.remembered and chosen.sighting == far
+
+
+def test_a_remembered_target_is_recognised_once_centred_from_anywhere():
+    # the robot at (1000, 500) facing 45°, the remembered mark 1 m straight ahead: recognised;
+    # turned 30° away from it: not yet
+    here = Pose(1000.0, 500.0, math.pi / 4)
+    ahead = (1000.0 + 1000.0 * math.cos(math.pi / 4), 500.0 + 1000.0 * math.sin(math.pi / 4))
+    memory = target(remembered=True, world_x=ahead[0], world_y=ahead[1])
+    sighting = seen_from(here, "red", ahead[0] + 30.0, ahead[1])
+    assert associate([sighting], memory, (), here) == sighting
+    turned = Pose(here.x, here.y, here.theta + math.radians(30.0))
+    assert associate([seen_from(turned, "red", *ahead)], memory, (), turned) is None
