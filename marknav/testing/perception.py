@@ -159,10 +159,16 @@ class FakePerception(PerceptionBase):
             relative.extend(self._in_view(self._view_pose()))
         marks = []
         odometry = self.robot.pose() if relative else None  # where the robot believes it is
-        for colour, forward, left, x_px, r_px in relative:
-            marks.append(self.seen_mark(colour=colour, forward_mm=forward, left_mm=left,
-                                        x_px=x_px, radius_px=r_px,
-                                        image_width=self.image_width, t=t, pose=odometry))
+        if odometry is not None:
+            # seen_mark's placement (to_world_frame), with one cos/sin for the frame's marks
+            ox, oy = odometry.x, odometry.y
+            c, s = math.cos(odometry.theta), math.sin(odometry.theta)
+            width = self.image_width
+            for colour, forward, left, x_px, r_px in relative:
+                marks.append(keys.SeenMark(colour=colour, forward_mm=forward, left_mm=left,
+                                           world_x=ox + c * forward - s * left,
+                                           world_y=oy + s * forward + c * left, x_px=x_px,
+                                           radius_px=r_px, image_width=width, t=t))
         marks.sort(key=lambda m: m.range_mm)
         info = keys.FrameInfo(index=tick, t=t, width=self.image_width,
                               height=self.image_height, marks=len(marks))
