@@ -14,8 +14,9 @@ Steps 1 and 2 happen once per cluster, however long the evaluation: a user of a 
 evaluation on a running cluster sees step 3, so the throughput (runs per minute) and the
 speed-up (``speedup_2_vs_1`` = evaluation time with one worker / with two) are step 3's. The
 per-seed results (every field but wall time) must be the same for every worker count
-(``identical``). The CPU time of each worker process is reported too: on a shared machine it
-tells contention (runs slowing each other) from waiting for a core.
+(``identical``). The CPU time of each worker process is reported too, and that of this process
+(the scheduler runs in it, with the client): on a shared machine they tell contention (runs
+slowing each other) and the cluster's own overhead from waiting for a core.
 """
 
 from __future__ import annotations
@@ -86,10 +87,11 @@ def _measure(mission: str, seeds: Sequence[int], max_time_s: float, workers: int
         t1 = time.perf_counter()
         cpu0: dict[str, float] = client.run(_warm_up)
         warmup_s = time.perf_counter() - t1
-        t2 = time.perf_counter()
+        t2, here0 = time.perf_counter(), time.process_time()
         results, _ = run_jobs([(mission, s) for s in seeds], max_time_s=max_time_s,
                               dask=cluster.scheduler_address)
         evaluation_s = time.perf_counter() - t2
+        here_s = time.process_time() - here0
         cpu1: dict[str, float] = client.run(_cpu_s)
     cpu = sorted(cpu1[w] - cpu0[w] for w in cpu1)
     section = {
@@ -100,6 +102,8 @@ def _measure(mission: str, seeds: Sequence[int], max_time_s: float, workers: int
         "runs_per_min": round(60.0 * len(seeds) / evaluation_s, 2),
         "worker_cpu_s": [round(c, 2) for c in cpu],
         "cpu_s_per_run": round(sum(cpu) / len(seeds), 2),
+        # this process during the evaluation: the scheduler (in-process here) and the client
+        "scheduler_client_cpu_s": round(here_s, 2),
     }
     return section, {r.seed: _outcome(r) for r in results}
 

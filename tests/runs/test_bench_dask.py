@@ -35,6 +35,7 @@ def test_one_and_two_workers_evaluate_the_same_seeds(tmp_path: Path) -> None:
         assert c["evaluation_s"] > 0 and c["start_s"] > 0 and c["warmup_s"] > 0
         assert c["runs_per_min"] == pytest.approx(60.0 * 3 / c["evaluation_s"], rel=0.02)
         assert c["cpu_s_per_run"] > 0  # the runs' CPU time was counted in the workers
+        assert c["scheduler_client_cpu_s"] >= 0
     assert out["identical"] is True
     assert out["speedup_2_vs_1"] == pytest.approx(
         out["clusters"][0]["evaluation_s"] / out["clusters"][1]["evaluation_s"], rel=0.02)
