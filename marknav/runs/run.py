@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
@@ -175,28 +173,6 @@ def recorded_plans() -> list[Any]:
     return list(bb.get(keys.PLANS)) if bb.exists(keys.PLANS) else []
 
 
-@contextmanager
-def one_opencv_thread(active: bool = True) -> Iterator[None]:
-    """OpenCV on one thread while the block runs (``active``), then as before.
-
-    A simulated run is one thread's work: at 640×480, OpenCV's worker threads (on by default,
-    one per core) cost more CPU than they save — measured on the 2-core CI machine, a slalom
-    run took 3.8 s of CPU with one thread and 5.1 s with two, with identical results — and
-    when runs go in parallel (``evaluate --jobs``, Dask workers) they compete for the cores
-    the other runs need."""
-    if not active:
-        yield
-        return
-    import cv2
-
-    before = cv2.getNumThreads()
-    cv2.setNumThreads(1)
-    try:
-        yield
-    finally:
-        cv2.setNumThreads(before)
-
-
 def execute(req: RunRequest) -> RunResult:
     """Run the mission of ``req`` to the end. Raises InputError for bad input,
     KeyboardInterrupt (after stopping the wheels and writing the report) on Ctrl-C/SIGTERM.
@@ -207,14 +183,7 @@ def execute(req: RunRequest) -> RunResult:
     signal arrives at any point (:mod:`marknav.signals`). What was written is listed in
     ``req.written``, what could not be in ``req.write_errors``. The environment (the driver:
     wheels stopped, Passive, port closed) is closed on every way out.
-
-    A simulated run keeps OpenCV to one thread (:func:`one_opencv_thread`).
     """
-    with one_opencv_thread(req.robot == "sim"):
-        return _execute(req)
-
-
-def _execute(req: RunRequest) -> RunResult:
     mission = req.mission
     seed = req.seed if req.seed is not None else (mission.sim.seed if mission.sim else 0)
     report = RunReport(
