@@ -555,10 +555,13 @@ class SafetyLayer:
     def _check_sensor_timeout(self, now: float) -> None:
         if self._model.state not in _CONNECTED:
             return
-        refs = [t for t in (self._connect_t, self._last_sensors_t) if t is not None]
-        if not refs:
-            return
-        ref = max(refs)
+        connect_t, sensors_t = self._connect_t, self._last_sensors_t  # the later one counts
+        if sensors_t is None:
+            if connect_t is None:
+                return
+            ref = connect_t
+        else:
+            ref = sensors_t if connect_t is None else max(connect_t, sensors_t)
         gap = now - ref
         if gap > self._sensor_timeout_s:
             since = "sensor frame" if self._last_sensors_t == ref else "sensor frame since connect"

@@ -123,11 +123,17 @@ def bench_dask(*, mission: str | Path | None = None, runs: int = 8, seed: int = 
     seeds = list(range(seed, seed + runs))
     sections: list[dict[str, Any]] = []
     outcomes: list[dict[int, dict[str, Any]]] = []
-    for n in workers:
-        section, outcome = _measure(path, seeds, max_time_s, n)
-        log.info("%d worker(s): %s", n, section)
-        sections.append(section)
-        outcomes.append(outcome)
+    chatty = logging.getLogger("distributed")  # clusters coming and going: not the news here
+    level = chatty.level
+    chatty.setLevel(max(level, logging.WARNING))
+    try:
+        for n in workers:
+            section, outcome = _measure(path, seeds, max_time_s, n)
+            log.info("%d worker(s): %s", n, section)
+            sections.append(section)
+            outcomes.append(outcome)
+    finally:
+        chatty.setLevel(level)
     out: dict[str, Any] = {
         "mission": Path(path).name,
         "runs": runs,

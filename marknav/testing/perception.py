@@ -100,6 +100,8 @@ class FakePerception(PerceptionBase):
         self.min_radius_px = float(min_radius_px)
         self.camera_on = True
         self.ticks = 0
+        self._world_key: tuple[WorldMark, ...] | None = None
+        self._world_xy: list[tuple[str, float, float]] = []
 
     def configure(self, **kwargs: Any) -> None:
         if self._radius_override is None and self.mission is not None:
@@ -185,8 +187,12 @@ class FakePerception(PerceptionBase):
         far = self.focal_px * radius / self.min_radius_px + 1.0
         half = 0.5 * self.image_width / self.focal_px
         out = []
-        for w in self.world:
-            dx, dy = w.x_mm - px, w.y_mm - py
+        marks = tuple(self.world)
+        if marks != self._world_key:  # (colour, x, y) of each mark, made when the world changes
+            self._world_key = marks
+            self._world_xy = [(w.colour, w.x_mm, w.y_mm) for w in marks]
+        for colour, x_mm, y_mm in self._world_xy:
+            dx, dy = x_mm - px, y_mm - py
             forward = c * dx + s * dy
             if forward <= radius or forward > far:
                 continue
@@ -196,7 +202,7 @@ class FakePerception(PerceptionBase):
             x_px, r_px = pinhole_pixels(forward, left, focal_px=self.focal_px,
                                         radius_mm=radius, image_width=self.image_width)
             if self._fits(x_px, r_px):
-                out.append((w.colour, forward, left, x_px, r_px))
+                out.append((colour, forward, left, x_px, r_px))
         return out
 
 
