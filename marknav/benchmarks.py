@@ -14,7 +14,10 @@ versions) once at the top level, then a section per benchmark:
 - ``safety`` — bump-to-stop latency, safety layer alone and through the real driver
   (:func:`marknav.runs.bench.bench_safety`);
 - ``render`` — ms per simulator frame against the 2 ms target
-  (:func:`marknav.sim.render_bench.bench_render`).
+  (:func:`marknav.sim.render_bench.bench_render`);
+- ``dask`` (not part of ``all``: minutes, and the ``cluster`` extra) — an evaluation's
+  throughput on a local Dask cluster of one worker, then two, cluster start excluded
+  (:func:`marknav.runs.bench_dask.bench_dask`).
 
 ``--quick`` runs each with small sizes (a smoke test: the figures are noisier). ``--profile``
 runs them under :mod:`cProfile` and prints the top costs (own time and cumulative time per
@@ -47,6 +50,8 @@ class Benchmark:
     help: str
     #: ``run(quick)`` -> the section's dict.
     run: Callable[[bool], dict[str, Any]]
+    #: Run by ``marknav bench all``.
+    in_all: bool = True
 
 
 def _vision(quick: bool) -> dict[str, Any]:
@@ -91,6 +96,12 @@ def _safety(quick: bool) -> dict[str, Any]:
     return bench_safety(n=200, e2e_n=50) if quick else bench_safety()
 
 
+def _dask(quick: bool) -> dict[str, Any]:
+    from marknav.runs.bench_dask import bench_dask
+
+    return bench_dask(runs=2, max_time_s=10.0) if quick else bench_dask()
+
+
 #: The registry, in the order ``all`` runs them.
 BENCHMARKS: dict[str, Benchmark] = {b.name: b for b in (
     Benchmark("vision", "detector vs HoughCircles, 640×480 synthetic frames, one core", _vision),
@@ -101,6 +112,8 @@ BENCHMARKS: dict[str, Benchmark] = {b.name: b for b in (
               _safety),
     Benchmark("render", "ms per 640×480 simulator frame, noise and blur (target 2 ms)",
               _render),
+    Benchmark("dask", "evaluation throughput on a local Dask cluster, 1 then 2 workers, "
+              "cluster start excluded (8 slalom runs each; not in all)", _dask, in_all=False),
 )}
 
 
@@ -143,7 +156,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "bench",
         help="measure vision, tree, control-loop and safety timings on this machine",
         description="Run the benchmarks and print their figures (" + "; ".join(
-            f"{b.name}: {b.help}" for b in BENCHMARKS.values()) + "; all: every one).",
+            f"{b.name}: {b.help}" for b in BENCHMARKS.values()) + "; all: every one but dask).",
     )
     p.add_argument("which", nargs="?", default="all", choices=[*BENCHMARKS, "all"],
                    help="which benchmark (default all)")
@@ -191,7 +204,8 @@ def profile_top(stats: pstats.Stats, n: int) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    names = list(BENCHMARKS) if args.which == "all" else [args.which]
+    names = ([n for n, b in BENCHMARKS.items() if b.in_all] if args.which == "all"
+             else [args.which])
     if args.profile is not None:
         if args.profile < 1:
             raise InputError(f"must be at least 1, got {args.profile}", field="--profile")

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from functools import cached_property
 from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
 
 import py_trees
@@ -202,10 +203,16 @@ class DrivingBehaviour(MarknavBehaviour):
 
     WRITES: ClassVar[tuple[str, ...]] = (keys.DRIVER,)
 
+    @cached_property
+    def _driver_id(self) -> str:
+        """``str(self.id)`` (the blackboard's driver id), made once: read every tick."""
+        return str(self.id)
+
     def _take_wheels(self) -> None:
         current: keys.Driver | None = self.read(keys.DRIVER)
-        if current is None or current.id != str(self.id):
-            self.write(keys.DRIVER, keys.Driver(id=str(self.id), name=self.name, since=self.now()))
+        if current is None or current.id != self._driver_id:
+            self.write(keys.DRIVER, keys.Driver(id=self._driver_id, name=self.name,
+                                                since=self.now()))
 
     def drive(self, *, left: float, right: float) -> bool:
         """Command wheel speeds (mm/s) through the safety layer; ``False`` if refused."""
@@ -220,7 +227,7 @@ class DrivingBehaviour(MarknavBehaviour):
     def owns_wheels(self) -> bool:
         """Whether this behaviour was the last to command the wheels."""
         current: keys.Driver | None = self.read(keys.DRIVER)
-        return current is not None and current.id == str(self.id)
+        return current is not None and current.id == self._driver_id
 
     def release_wheels(self) -> None:
         """Stop the wheels if this behaviour is driving them, and give them up."""

@@ -80,7 +80,7 @@ ALL_KEYS: tuple[str, ...] = (FRAME, MARKS, LAST_SEEN, TARGET, PASSED, PLANS, DRI
                              KNOWN)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class SeenMark:
     """One mark seen in one frame: robot frame (at the time of the tick), world frame, pixels.
 
@@ -88,6 +88,10 @@ class SeenMark:
     ``world_x``/``world_y`` the same point placed with the robot's odometry pose. ``x_px`` is the
     image column of the mark's centre and ``radius_px`` its semi-major axis in a frame
     ``image_width`` pixels wide; ``t`` is the mission-clock time the frame was processed.
+
+    Made for every mark of every frame: the constructor fills the instance's dict in one step
+    (a frozen dataclass's own ``__init__`` sets each field through ``object.__setattr__``,
+    ~3× slower); the dataclass still makes it frozen, compared and printed by its fields.
     """
 
     colour: str
@@ -102,8 +106,13 @@ class SeenMark:
     #: Straight-line distance from the robot to the mark centre (mm), computed once.
     range_mm: float = field(init=False, repr=False, compare=False)
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "range_mm", math.hypot(self.forward_mm, self.left_mm))
+    def __init__(self, colour: str, forward_mm: float, left_mm: float, world_x: float,
+                 world_y: float, x_px: float, radius_px: float, image_width: int,
+                 t: float) -> None:
+        self.__dict__.update(colour=colour, forward_mm=forward_mm, left_mm=left_mm,
+                             world_x=world_x, world_y=world_y, x_px=x_px, radius_px=radius_px,
+                             image_width=image_width, t=t,
+                             range_mm=math.hypot(forward_mm, left_mm))
 
     @property
     def bearing_rad(self) -> float:
@@ -141,7 +150,7 @@ class FrameInfo:
     marks: int
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class Target:
     """The mark the robot is heading for: the current waypoint's mark.
 
@@ -166,6 +175,15 @@ class Target:
     #: until it is seen again, not swapped for a farther mark of its colour that is in view.
     remembered: bool = False
 
+    def __init__(self, waypoint: int, waypoint_id: str, colour: str, side: Side,
+                 sighting: SeenMark | None = None, world_x: float | None = None,
+                 world_y: float | None = None, locked: bool = False,
+                 remembered: bool = False) -> None:
+        # Refreshed with every sighting: one-step constructor, as SeenMark's.
+        self.__dict__.update(waypoint=waypoint, waypoint_id=waypoint_id, colour=colour,
+                             side=side, sighting=sighting, world_x=world_x, world_y=world_y,
+                             locked=locked, remembered=remembered)
+
     @property
     def world(self) -> tuple[float, float] | None:
         """The estimated world position, or ``None`` when the mark was never seen."""
@@ -179,10 +197,11 @@ class Target:
         return f"{self.colour} #{self.waypoint + 1}" if self.waypoint >= 0 else self.colour
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class KnownMark:
     """A mark remembered from earlier frames (``/marknav/known``): its colour, its latest world
-    position estimate (odometry frame), when it was last seen and from how far."""
+    position estimate (odometry frame), when it was last seen and from how far. (Made for
+    every mark of every frame: one-step constructor, as :class:`SeenMark`'s.)"""
 
     colour: str
     world_x: float
@@ -192,6 +211,11 @@ class KnownMark:
     #: Frames that saw it, and frames since that should have (in view, near) but did not.
     seen: int = 1
     missed: int = 0
+
+    def __init__(self, colour: str, world_x: float, world_y: float, t: float, range_mm: float,
+                 seen: int = 1, missed: int = 0) -> None:
+        self.__dict__.update(colour=colour, world_x=world_x, world_y=world_y, t=t,
+                             range_mm=range_mm, seen=seen, missed=missed)
 
     @property
     def world(self) -> tuple[float, float]:

@@ -228,8 +228,9 @@ def associate(
 
 def with_sighting(target: keys.Target, sighting: keys.SeenMark) -> keys.Target:
     """``target`` updated with a new sighting of its mark (and its world position)."""
-    return replace(target, sighting=sighting, world_x=sighting.world_x, world_y=sighting.world_y,
-                   remembered=False)
+    # dataclasses.replace, spelt out: this runs every frame the target is seen
+    return keys.Target(target.waypoint, target.waypoint_id, target.colour, target.side,
+                       sighting, sighting.world_x, sighting.world_y, target.locked, False)
 
 
 def describe(mark: keys.SeenMark | None) -> str:

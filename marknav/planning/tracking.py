@@ -129,6 +129,7 @@ class PurePursuit:
         seg = np.diff(self.points, axis=0)
         self._seg = seg
         self._seg_len = np.hypot(seg[:, 0], seg[:, 1])
+        self._seg_len2 = self._seg_len ** 2
         self._cum = np.concatenate(([0.0], np.cumsum(self._seg_len)))
         self._cum_list: list[float] = self._cum.tolist()  # bisect beats searchsorted on scalars
         self.length_mm = float(self._cum[-1])
@@ -140,21 +141,24 @@ class PurePursuit:
     # -- geometry --------------------------------------------------------------------------
 
     def _closest(self, xy: Vec2, lo_mm: float, hi_mm: float) -> float:
-        """Arc length of the path point closest to ``xy`` among segments in [lo_mm, hi_mm]."""
+        """Arc length of the path point closest to ``xy`` among segments in [lo_mm, hi_mm].
+
+        Called every control cycle: few NumPy calls, in place where possible (the same
+        arithmetic, so the same result, as the plain expressions)."""
         first = max(0, bisect.bisect_right(self._cum_list, lo_mm) - 1)
         last = min(len(self._seg), bisect.bisect_right(self._cum_list, hi_mm))
         last = max(last, first + 1)
         starts = self.points[first:last]
         seg = self._seg[first:last]
-        length2 = self._seg_len[first:last] ** 2
-        rel = np.asarray(xy) - starts
-        u = np.einsum("ij,ij->i", rel, seg) / length2
-        np.maximum(u, 0.0, out=u)
-        np.minimum(u, 1.0, out=u)
-        foot = starts + u[:, None] * seg
-        d2 = np.sum((foot - np.asarray(xy)) ** 2, axis=1)
-        k = int(np.argmin(d2))
-        return float(self._cum[first + k] + u[k] * self._seg_len[first + k])
+        p = np.array(xy, dtype=float)
+        u = np.einsum("ij,ij->i", p - starts, seg)
+        u /= self._seg_len2[first:last]
+        np.clip(u, 0.0, 1.0, out=u)
+        d = u[:, None] * seg  # foot of the perpendicular − xy: starts + u·seg − xy
+        d += starts
+        d -= p
+        k = int(np.einsum("ij,ij->i", d, d).argmin())
+        return float(self._cum_list[first + k] + u[k] * self._seg_len[first + k])
 
     def point_at(self, s_mm: float) -> Vec2:
         """The path point at arc length ``s_mm``; beyond the end, on the end tangent's extension."""

@@ -100,6 +100,8 @@ class FakePerception(PerceptionBase):
         self.min_radius_px = float(min_radius_px)
         self.camera_on = True
         self.ticks = 0
+        self._world_key: tuple[WorldMark, ...] | None = None
+        self._world_xy: list[tuple[str, float, float]] = []
 
     def configure(self, **kwargs: Any) -> None:
         if self._radius_override is None and self.mission is not None:
@@ -159,10 +161,16 @@ class FakePerception(PerceptionBase):
             relative.extend(self._in_view(self._view_pose()))
         marks = []
         odometry = self.robot.pose() if relative else None  # where the robot believes it is
-        for colour, forward, left, x_px, r_px in relative:
-            marks.append(self.seen_mark(colour=colour, forward_mm=forward, left_mm=left,
-                                        x_px=x_px, radius_px=r_px,
-                                        image_width=self.image_width, t=t, pose=odometry))
+        if odometry is not None:
+            # seen_mark's placement (to_world_frame), with one cos/sin for the frame's marks
+            ox, oy = odometry.x, odometry.y
+            c, s = math.cos(odometry.theta), math.sin(odometry.theta)
+            width = self.image_width
+            for colour, forward, left, x_px, r_px in relative:
+                marks.append(keys.SeenMark(colour=colour, forward_mm=forward, left_mm=left,
+                                           world_x=ox + c * forward - s * left,
+                                           world_y=oy + s * forward + c * left, x_px=x_px,
+                                           radius_px=r_px, image_width=width, t=t))
         marks.sort(key=lambda m: m.range_mm)
         info = keys.FrameInfo(index=tick, t=t, width=self.image_width,
                               height=self.image_height, marks=len(marks))
@@ -179,8 +187,12 @@ class FakePerception(PerceptionBase):
         far = self.focal_px * radius / self.min_radius_px + 1.0
         half = 0.5 * self.image_width / self.focal_px
         out = []
-        for w in self.world:
-            dx, dy = w.x_mm - px, w.y_mm - py
+        marks = tuple(self.world)
+        if marks != self._world_key:  # (colour, x, y) of each mark, made when the world changes
+            self._world_key = marks
+            self._world_xy = [(w.colour, w.x_mm, w.y_mm) for w in marks]
+        for colour, x_mm, y_mm in self._world_xy:
+            dx, dy = x_mm - px, y_mm - py
             forward = c * dx + s * dy
             if forward <= radius or forward > far:
                 continue
@@ -190,7 +202,7 @@ class FakePerception(PerceptionBase):
             x_px, r_px = pinhole_pixels(forward, left, focal_px=self.focal_px,
                                         radius_mm=radius, image_width=self.image_width)
             if self._fits(x_px, r_px):
-                out.append((w.colour, forward, left, x_px, r_px))
+                out.append((colour, forward, left, x_px, r_px))
         return out
 
 

@@ -303,3 +303,36 @@ def test_bad_command_arguments_are_named(make: Callable[[], bytes], message: str
 def test_led_defaults_and_a_paused_stream() -> None:
     assert oi.leds() == bytes([139, 0, 0, 0])
     assert oi.pause_stream() == bytes([150, 0])
+
+
+@pytest.mark.parametrize("model", [C1, C2])
+def test_with_packets_is_a_replace_of_the_decoded_fields(model: Model) -> None:
+    """The fast merge of a frame's packets equals dataclasses.replace with their fields, frame
+    after frame of random bytes (every streamed packet), and the result stays frozen."""
+    import dataclasses
+    import random
+
+    from marknav.drivers.packets import encode_packet, state_updates
+
+    rng = random.Random(7)
+    ids = [7, 8, 9, 10, 11, 12, 14, 19, 20, 3, 5] + ([43, 44] if model is C2 else [])
+    fast = slow = SensorState(model=model)
+    for _ in range(50):
+        decoded: dict[int, object] = {}
+        for pid in ids:
+            size = len(encode_packet(model, pid, {}))
+            for _attempt in range(2000):  # random bytes until they are a valid packet
+                try:
+                    decoded.update(decode_packet(model, pid, bytes(rng.randrange(256)
+                                                                   for _ in range(size))))
+                    break
+                except ValueError:  # e.g. an OI mode byte above 3
+                    continue
+            else:
+                raise AssertionError(f"no valid random packet {pid}")
+        fast = fast.with_packets(decoded)
+        slow = dataclasses.replace(slow, received=slow.received | frozenset(decoded),
+                                   **state_updates(model, decoded))
+        assert fast == slow
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        fast.wall = True  # type: ignore[misc]

@@ -794,3 +794,32 @@ def test_the_smallest_wheel_limit_is_accepted() -> None:
     layer, sink, _ = connected(max_wheel_mm_s=1)
     assert layer.command(left=300, right=150) is True
     assert sink.calls == [(1, 0)]  # both scaled by one factor: 1 and 0.5, rounded to even
+
+
+def test_every_transition_and_sink_write_runs_under_the_layers_lock() -> None:
+    """The machine has no lock of its own: each public entry takes the layer's RLock before
+    any transition, so every wheel write (transitions' callbacks included) happens under it."""
+    clock = ManualClock(0.0)
+    holders: list[bool] = []
+
+    class CheckingSink(RecordingSink):
+        def drive_direct(self, *, left: int, right: int) -> None:
+            holders.append(layer._lock._is_owned())  # type: ignore[attr-defined]
+            super().drive_direct(left=left, right=right)
+
+    sink = CheckingSink(clock)
+    layer = SafetyLayer(sink, clock=clock)
+    layer.connect()
+    layer.on_sensors(CLEAR)
+    assert layer.command(left=100, right=100)  # ready -> driving
+    assert layer.command(left=120, right=100)  # driving: direct write
+    layer.stop()  # driving -> ready
+    assert layer.command(left=100, right=100)
+    layer.on_sensors(flags(bump_left=True))  # bump: zero written on this thread
+    assert layer.backoff(left=-50, right=-50)
+    layer.on_sensors(CLEAR)  # bump cleared -> ready
+    clock.advance(5.0)
+    layer.poll()  # sensor timeout -> fault
+    layer.estop("test")
+    assert layer.state is S.ESTOPPED
+    assert len(holders) >= 8 and all(holders)

@@ -86,9 +86,9 @@ def test_closing_the_master_is_a_lost_link_not_a_crash(server: PtyServer) -> Non
     try:
         assert driver.drive(left=100, right=100)
         server.close()  # like pulling the USB cable
-        # the reader records the lost link, then tells the safety layer: wait for both (the
-        # state was once read in between, on a loaded machine)
-        assert wait_until(lambda: driver.safety_state == "fault")
+        # The reader thread records the error, logs it, then latches the fault: wait for both.
+        assert wait_until(lambda: driver.link_error is not None
+                          and driver.safety_state == "fault")
         assert driver.link_error is not None and "read failed" in driver.link_error
         assert "serial link lost" in (driver.fault_reason or "")
         assert not driver.drive(left=100, right=100)

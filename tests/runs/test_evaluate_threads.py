@@ -1,0 +1,60 @@
+"""An evaluation's runs keep OpenCV to one thread each and give the previous setting back
+(issue 16: OpenCV's worker threads cost CPU and oversubscribe the cores when runs go in
+parallel)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import cv2
+import pytest
+import yaml
+
+from marknav.runs import run as runmod
+from marknav.runs.evaluate_backends import one_opencv_thread, run_jobs
+from marknav.testing import BASE_MISSION
+
+TINY = {
+    **BASE_MISSION,
+    "name": "tiny",
+    "route": ["red"],
+    "camera": {"width": 320, "height": 240, "focal_px": 295,
+               "range": {"model": "pinhole", "focal_px": 295}},
+}
+
+
+def test_an_evaluation_job_runs_on_one_opencv_thread_then_restores_it(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    mission = tmp_path / "tiny.yaml"
+    mission.write_text(yaml.safe_dump(TINY), encoding="utf-8")
+    seen: list[int] = []
+    original = runmod.execute
+
+    def watching(*args: Any, **kwargs: Any) -> Any:
+        seen.append(cv2.getNumThreads())
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(runmod, "execute", watching)
+    before = cv2.getNumThreads()
+    cv2.setNumThreads(3)
+    try:
+        results, workers = run_jobs([(str(mission), 1), (str(mission), 2)], max_time_s=0.2)
+        assert workers == 1 and [r.seed for r in results] == [1, 2]
+        assert all(r.outcome == "failed" for r in results)  # the 0.2 s time limit
+        assert seen == [1, 1]
+        assert cv2.getNumThreads() == 3
+    finally:
+        cv2.setNumThreads(before)
+
+
+def test_the_setting_comes_back_after_an_exception() -> None:
+    before = cv2.getNumThreads()
+    cv2.setNumThreads(2)
+    try:
+        with pytest.raises(RuntimeError), one_opencv_thread():
+            assert cv2.getNumThreads() == 1
+            raise RuntimeError("boom")
+        assert cv2.getNumThreads() == 2
+    finally:
+        cv2.setNumThreads(before)
