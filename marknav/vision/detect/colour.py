@@ -73,6 +73,29 @@ def _circular_mean_hue(hist: FloatArray) -> float | None:
     return hue
 
 
+def balance_subsample(image: U8Array | Mat, scale: int) -> Mat:
+    """The subsample :meth:`_ColourStage.white_balance` reads of ``image`` box-reduced by
+    ``scale`` (1 or 2), taken from ``image`` itself: the same pixels (nearest neighbour of the
+    reduced image, each the mean of its ``scale``×``scale`` block) without reducing the frame."""
+    h, w = image.shape[:2]
+    sh, sw = (h // scale, w // scale) if scale > 1 else (h, w)
+    step = max(1, sw // 48)
+    th, tw = max(1, sh // step), max(1, sw // step)
+    # cv2.INTER_NEAREST: source index floor(dst · src / dst_size).
+    ys = (np.arange(th) * (sh / th)).astype(np.intp) * scale
+    xs = (np.arange(tw) * (sw / tw)).astype(np.intp) * scale
+    if scale == 1:
+        return np.ascontiguousarray(image[ys][:, xs])
+    acc = np.zeros((th, tw, 3), np.uint16)
+    for dy in range(scale):
+        rows = image[ys + dy]
+        for dx in range(scale):
+            acc += rows[:, xs + dx]
+    # INTER_AREA rounds the block mean to nearest.
+    out: Mat = ((acc + (scale * scale) // 2) // (scale * scale)).astype(np.uint8)
+    return out
+
+
 def _diagonal(gains: tuple[float, float, float]) -> npt.NDArray[np.float32]:
     out = np.zeros((3, 3), np.float32)
     out[0, 0], out[1, 1], out[2, 2] = gains
@@ -149,6 +172,10 @@ class _ColourStage(_DetectorBase):
         step = max(1, w // 48)
         tiny = cv2.resize(image, (max(1, w // step), max(1, h // step)),
                           interpolation=cv2.INTER_NEAREST)
+        return self.balance_sample(tiny)
+
+    def balance_sample(self, tiny: U8Array | Mat) -> tuple[tuple[float, float, float], float]:
+        """:meth:`white_balance` of its ≈ 48-pixel-wide subsample."""
         lo, hi = self.config.gain_limits
         gains = (1.0, 1.0, 1.0)
         grey = -1.0
