@@ -25,6 +25,7 @@ from marknav.vision.detect.colour import _NO_COLOUR, _diagonal, balance_subsampl
 from marknav.vision.detect.gate import SearchBuffers, coarse_sample, search_products
 from marknav.vision.detect.geometry import (
     Contour,
+    Mat,
     U8Array,
     _flat_stretch,
     _from_rotated_rect,
@@ -247,11 +248,33 @@ class Detector(_ArcMarks):
             own = cv2.morphologyEx(own, cv2.MORPH_OPEN, self._kernel3)
             parts, _ = cv2.findContours(own, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
                                         offset=(bx, by))
+            found: list[Mark] = []
             for part in parts:
                 part_area = cv2.contourArea(part)
                 if len(part) < 6 or part_area < min_area or part_area > 0.97 * area:
                     continue
-                marks.extend(self._blob(frame, part, part_area))
+                found.extend(self._blob(frame, part, part_area))
+            if cfg.bridge_px > 0 and len(parts) >= 2:
+                # The cluster's pieces may be one mark cut by a thin occluder (a mark against
+                # a region of another palette colour, a pole across it).
+                found.extend(self._joined(frame, own, (bx, by), len(parts), min_area))
+            marks.extend(found)
+        return marks
+
+    def _joined(self, frame: _Frame, own: Mat, origin: tuple[int, int], pieces: int,
+                min_area: float) -> list[Mark]:
+        """Whole marks among the shapes of a mask (search resolution, at ``origin``) closed
+        across gaps of up to ``bridge_px``, where the closing joined some of its ``pieces``."""
+        k = 2 * math.ceil((self.config.bridge_px / frame.sx + 2.0) / 2.0) + 1
+        kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
+        shut = cv2.morphologyEx(own, cv2.MORPH_CLOSE, kernel)
+        shapes, _ = cv2.findContours(shut, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
+                                     offset=origin)
+        if len(shapes) >= pieces:
+            return []  # nothing joined
+        marks: list[Mark] = []
+        for shape in shapes:
+            marks.extend(self._bridged_one(frame, shape, min_area))
         return marks
 
     def _blob(self, frame: _Frame, contour: Contour, area: float) -> list[Mark]:
