@@ -260,8 +260,7 @@ class Perception(PerceptionBase):
                 from marknav.vision.detector_setup import CameraDetector
 
                 self._detector = CameraDetector.for_mission(
-                    mission, None if mission.camera.intrinsics is None else
-                    mission.camera.intrinsics.cy)
+                    mission, None if self._intrinsics is None else self._intrinsics.cy)
             calibrate = mission.robot.calibrate_wheels
             if calibrate and self._calibrator is None:
                 self._calibrator = WheelRatioCalibrator()

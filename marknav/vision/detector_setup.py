@@ -2,8 +2,8 @@
 camera model (``camera.detect`` in the mission file).
 
 - **Minimum radius** (:meth:`DetectorConfig.for_camera`): a mark at ``max_range_mm`` is
-  0.9·f·R/d px across its semi-major axis; smaller blobs are not marks that matter (they are
-  clutter or marks too far to steer by).
+  0.9·f·R/d px across its semi-major axis, not below ``ROBOT_FLOOR_PX``; smaller blobs are not
+  marks that matter (they are clutter or marks too far to steer by).
 - **Horizon prior** (paper §3.1: marks stand at camera height): mark centres lie on the
   principal point's row (the image centre's without intrinsics). ``horizon_tolerance_deg``
   covers the camera's pitch (f·tan t rows) and roll (up to width/2·tan t rows at the image
@@ -25,10 +25,14 @@ from marknav.vision.palette import Palette
 if TYPE_CHECKING:
     from marknav.missions.schema import Mission
 
-__all__ = ["HORIZON_SLACK_PX", "CameraDetector", "camera_detector_config"]
+__all__ = ["HORIZON_SLACK_PX", "ROBOT_FLOOR_PX", "CameraDetector", "camera_detector_config"]
 
 #: Rows added to the horizon tolerance for the error of a measured centre.
 HORIZON_SLACK_PX = 4.0
+#: The smallest minimum radius the robot uses (px): the detector finds marks down to 2.5 px,
+#: but below 5 px their range is off by 10-16 % (README, *Small cameras*) and a 160×120
+#: camera's slalom goes wrong steering by them (wrong side, seed 5 of the camera-run test).
+ROBOT_FLOOR_PX = 5.0
 
 
 def camera_detector_config(*, width: int, height: int, focal_px: float, mark_radius_mm: float,
@@ -44,8 +48,8 @@ def camera_detector_config(*, width: int, height: int, focal_px: float, mark_rad
     if max_range_mm is None:
         return DetectorConfig(horizon_row=row, horizon_tolerance_px=tolerance)
     return DetectorConfig.for_camera(focal_px=focal_px, mark_radius_mm=mark_radius_mm,
-                                     max_range_mm=max_range_mm, horizon_row=row,
-                                     horizon_tolerance_px=tolerance)
+                                     max_range_mm=max_range_mm, floor_px=ROBOT_FLOOR_PX,
+                                     horizon_row=row, horizon_tolerance_px=tolerance)
 
 
 class CameraDetector:

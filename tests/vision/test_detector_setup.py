@@ -17,7 +17,7 @@ from marknav.behaviours.perception import Perception
 from marknav.cli import main
 from marknav.missions.schema import Mission, load_mission
 from marknav.testing import FakeRobot
-from marknav.vision.detector_setup import HORIZON_SLACK_PX, CameraDetector
+from marknav.vision.detector_setup import HORIZON_SLACK_PX, ROBOT_FLOOR_PX, CameraDetector
 from marknav.vision.sources import Frame
 
 MISSION = """\
@@ -49,7 +49,7 @@ def test_a_half_size_frame_gets_the_camera_scaled_to_it(tmp_path: Path) -> None:
     mission = load_mission(_mission(tmp_path))
     det = CameraDetector.for_mission(mission, horizon_row=250.0)
     full, half = det.config_for(640, 480), det.config_for(320, 240)
-    assert half.min_radius == pytest.approx(max(2.5, full.min_radius / 2))
+    assert half.min_radius == pytest.approx(max(ROBOT_FLOOR_PX, full.min_radius / 2))
     assert half.horizon_row == pytest.approx((250.0 + 0.5) / 2 - 0.5)
     assert half.horizon_tolerance_px < full.horizon_tolerance_px
 
