@@ -29,7 +29,7 @@ import numpy as np
 from marknav.vision.bench import Image, match_marks, plain_hough, to_hsv
 from marknav.vision.composite import COMPOSITE_PALETTE, composite_frames, load_photos
 from marknav.vision.detect import Detector, DetectorConfig, Mark
-from marknav.vision.detector_setup import CameraDetector
+from marknav.vision.detector_setup import ROBOT_FLOOR_PX, CameraDetector
 from marknav.vision.palette import ColourRange, Palette
 
 __all__ = [
@@ -135,7 +135,8 @@ def camera_config(width: int, horizon_row: float | None = None,
     return DetectorConfig.for_camera(
         focal_px=CAMERA["focal_px"] * width / CAMERA_WIDTH,
         mark_radius_mm=CAMERA["mark_radius_mm"], max_range_mm=CAMERA["max_range_mm"],
-        horizon_row=horizon_row, horizon_tolerance_px=horizon_tolerance_px)
+        floor_px=ROBOT_FLOOR_PX, horizon_row=horizon_row,
+        horizon_tolerance_px=horizon_tolerance_px)
 
 
 def real_false_marks(photos: Sequence[LabelledPhoto], palette: Palette, long_side: int, *,
