@@ -262,10 +262,11 @@ class DetectSettings(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     max_range_mm: float | None = Field(
-        default=6000.0, gt=0, allow_inf_nan=False,
+        default=None, gt=0, allow_inf_nan=False,
         description="Farthest mark range that matters, mm: marks smaller than one there "
         "(0.9·focal_px·marks.radius_mm / max_range_mm px, at least 5 px) are not searched "
-        "for. null: the detector's fixed pixel minimum (5 px, more on frames over 640 px wide).",
+        "for. null (default): the detector's fixed pixel minimum (5 px, more on frames over "
+        "640 px wide); 6000 lost marks in long-course search turns.",
     )
     horizon_tolerance_deg: float | None = Field(
         default=3.0, ge=0, le=30, allow_inf_nan=False,

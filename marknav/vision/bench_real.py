@@ -19,7 +19,7 @@ import json
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +29,7 @@ import numpy as np
 from marknav.vision.bench import Image, match_marks, plain_hough, to_hsv
 from marknav.vision.composite import COMPOSITE_PALETTE, composite_frames, load_photos
 from marknav.vision.detect import Detector, DetectorConfig, Mark
-from marknav.vision.detector_setup import ROBOT_FLOOR_PX, CameraDetector
+from marknav.vision.detector_setup import CameraDetector, camera_detector_config
 from marknav.vision.palette import ColourRange, Palette
 
 __all__ = [
@@ -124,7 +124,7 @@ def _resized(image: Image, long_side: int) -> tuple[Image, float]:
 
 
 #: marknav's default camera and marks (missions/slalom.yaml: 640 px wide, f = 590 px, marks of
-#: 100 mm) and the mission default ``camera.detect.max_range_mm``.
+#: 100 mm) with `camera.detect.max_range_mm: 6000` (marks smaller than 8.9 px are not searched for).
 CAMERA = {"focal_px": 590.0, "mark_radius_mm": 100.0, "max_range_mm": 6000.0}
 CAMERA_WIDTH, CAMERA_HEIGHT = 640, 480
 
@@ -132,11 +132,12 @@ CAMERA_WIDTH, CAMERA_HEIGHT = 640, 480
 def camera_config(width: int, horizon_row: float | None = None,
                   horizon_tolerance_px: float = 24.0) -> DetectorConfig:
     """The config perception builds for :data:`CAMERA` scaled to ``width`` px."""
-    return DetectorConfig.for_camera(
+    cfg = camera_detector_config(
+        width=width, height=round(width * CAMERA_HEIGHT / CAMERA_WIDTH),
         focal_px=CAMERA["focal_px"] * width / CAMERA_WIDTH,
         mark_radius_mm=CAMERA["mark_radius_mm"], max_range_mm=CAMERA["max_range_mm"],
-        floor_px=ROBOT_FLOOR_PX, horizon_row=horizon_row,
-        horizon_tolerance_px=horizon_tolerance_px)
+        horizon_tolerance_deg=None)
+    return replace(cfg, horizon_row=horizon_row, horizon_tolerance_px=horizon_tolerance_px)
 
 
 def real_false_marks(photos: Sequence[LabelledPhoto], palette: Palette, long_side: int, *,

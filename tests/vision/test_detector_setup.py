@@ -35,8 +35,14 @@ def _mission(tmp_path: Path, detect: str = "") -> Path:
     return p
 
 
-def test_the_default_derives_the_minimum_radius_and_the_horizon_band(tmp_path: Path) -> None:
-    mission = load_mission(_mission(tmp_path))
+def test_the_default_is_the_horizon_band_with_the_fixed_minimum(tmp_path: Path) -> None:
+    cfg = CameraDetector.for_mission(load_mission(_mission(tmp_path))).config_for(640, 480)
+    assert cfg.min_radius == 5.0 and cfg.horizon_row == pytest.approx(239.5)
+
+
+def test_a_farthest_range_derives_the_minimum_radius_and_the_horizon_band(
+        tmp_path: Path) -> None:
+    mission = load_mission(_mission(tmp_path, "  detect: {max_range_mm: 6000}\n"))
     cfg = CameraDetector.for_mission(mission).config_for(640, 480)
     assert cfg.min_radius == pytest.approx(0.9 * 590 * 100 / 6000)  # 8.85 px at 6 m
     assert cfg.min_partial_radius == pytest.approx(1.6 * cfg.min_radius)
@@ -46,7 +52,7 @@ def test_the_default_derives_the_minimum_radius_and_the_horizon_band(tmp_path: P
 
 
 def test_a_half_size_frame_gets_the_camera_scaled_to_it(tmp_path: Path) -> None:
-    mission = load_mission(_mission(tmp_path))
+    mission = load_mission(_mission(tmp_path, "  detect: {max_range_mm: 6000}\n"))
     det = CameraDetector.for_mission(mission, horizon_row=250.0)
     full, half = det.config_for(640, 480), det.config_for(320, 240)
     assert half.min_radius == pytest.approx(max(ROBOT_FLOOR_PX, full.min_radius / 2))
@@ -62,7 +68,7 @@ def test_null_settings_give_the_plain_detector(tmp_path: Path) -> None:
 
 
 def test_marks_off_the_horizon_and_too_far_are_not_reported(tmp_path: Path) -> None:
-    mission = load_mission(_mission(tmp_path))
+    mission = load_mission(_mission(tmp_path, "  detect: {max_range_mm: 6000}\n"))
     image = np.full((480, 640, 3), 128, np.uint8)
     cv2.circle(image, (150, 240), 25, (0, 0, 255), -1)  # on the horizon
     cv2.circle(image, (500, 60), 25, (0, 0, 255), -1)  # 10° above it
