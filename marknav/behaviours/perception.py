@@ -204,7 +204,9 @@ class Perception(PerceptionBase):
     Setup keywords: ``camera`` (a :class:`~marknav.vision.sources.FrameSource`, required),
     ``mission`` (palette, mark radius, range model), ``robot`` (odometry pose), ``clock``;
     optionally ``detector`` (anything with ``detect(image) -> list[Mark]``; default
-    ``Detector(mission.palette())``) and ``range_model`` (default from ``mission.camera.range``).
+    :class:`~marknav.vision.detector_setup.CameraDetector` of the mission's camera: minimum
+    radius and horizon prior from ``camera.detect``) and ``range_model`` (default from
+    ``mission.camera.range``).
     A frame whose index repeats the previous one is not processed again.
     """
 
@@ -255,9 +257,10 @@ class Perception(PerceptionBase):
                     self.range_learner = RangeLawLearner(prior=prior)
                     self._range_model = prior
             if self._detector is None:
-                from marknav.vision.detect import Detector
+                from marknav.vision.detector_setup import CameraDetector
 
-                self._detector = Detector(mission.palette())
+                self._detector = CameraDetector.for_mission(
+                    mission, None if self._intrinsics is None else self._intrinsics.cy)
             calibrate = mission.robot.calibrate_wheels
             if calibrate and self._calibrator is None:
                 self._calibrator = WheelRatioCalibrator()

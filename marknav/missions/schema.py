@@ -256,6 +256,26 @@ class CameraIntrinsics(BaseModel):
         return dist
 
 
+class DetectSettings(BaseModel):
+    """How the detector uses the camera model (``marknav.vision.detector_setup``)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    max_range_mm: float | None = Field(
+        default=None, gt=0, allow_inf_nan=False,
+        description="Farthest mark range that matters, mm: marks smaller than one there "
+        "(0.9·focal_px·marks.radius_mm / max_range_mm px, at least 5 px) are not searched "
+        "for. null (default): the detector's fixed pixel minimum (5 px, more on frames over "
+        "640 px wide); 6000 lost marks in long-course search turns.",
+    )
+    horizon_tolerance_deg: float | None = Field(
+        default=3.0, ge=0, le=30, allow_inf_nan=False,
+        description="The paper's camera-height prior (§3.1): mark centres lie on the principal "
+        "point's row, within this camera pitch and roll, degrees (focal_px·tan t + width/2·tan t "
+        "px, plus 4 px). null: marks anywhere in the frame.",
+    )
+
+
 class Camera(BaseModel):
     """The camera and how a mark's image size becomes its distance."""
 
@@ -282,6 +302,10 @@ class Camera(BaseModel):
         default=None,
         description="Camera matrix and lens distortion from `marknav calibrate-camera`: "
         "detections are undistorted before their range and offset are estimated.",
+    )
+    detect: DetectSettings = Field(
+        default=DetectSettings(),
+        description="Detector settings from the camera model: farthest range, horizon prior.",
     )
     learn_range: bool = Field(
         default=False,

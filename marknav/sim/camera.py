@@ -322,6 +322,7 @@ def _draw_clutter(
 def _panorama(
     background: Background, gains_bgr: tuple[float, float, float], config: CameraConfig,
     room: Conditions | None = None, near: tuple[float, ...] = (),
+    palette_ranges: tuple[tuple[int, int], ...] = (),
 ) -> Image:
     """The background for every heading: H × Wp × 3 (Wp = 2πf columns), gains applied.
     Cached: worlds that differ only in their marks share it (treat it as read-only)."""
@@ -355,7 +356,7 @@ def _panorama(
     amp = np.where(np.arange(h)[:, None] < base_row, 9.0, 14.0).astype(np.float32)
     pan += (amp * shade + 3.0 * grain)[:, :, None]
     if room is not None:
-        paint_room(pan, base_row, background.seed, room)
+        paint_room(pan, base_row, background.seed, room, palette_ranges)
     # Skirting board.
     pan[max(0, base_row - 5):base_row] *= 0.45
     gains = np.array(gains_bgr)
@@ -423,8 +424,9 @@ class Renderer:
             self._colours.append((float(bgr[0]), float(bgr[1]), float(bgr[2])))
         self._geometry = _MarkGeometry(world)
         cond = world.conditions
+        ranges = tuple((c.hue_lo, c.hue_hi) for c in palette)
         pan = _panorama(world.background, cond.channel_gains_bgr(), canvas, _room(cond),
-                        tuple(near_hues([(c.hue_lo, c.hue_hi) for c in palette])))
+                        tuple(near_hues(list(ranges))), ranges)
         self._wp = pan.shape[1]
         self._poles = poles(world.background.seed, cond.occluders, self._wp, config.focal_px)
         self._blur = world.conditions.blur_sigma_px

@@ -10,6 +10,12 @@ from the background's seed):
   its README), tiled round the room;
 - ``wall_hue``: one colour dominates the scene: the wall is tinted with this hue at saturation
   60-120 (a green room, an orange one);
+- the room's own colours stay off the palette's hues (within ``PALETTE_MARGIN``): a tint inside
+  a mark colour's range moves just past its end, and a photograph's pixels of a mark colour
+  (a blue sky behind a blue mark) are desaturated to ``PHOTO_PALETTE_SAT``. A mark of the
+  room's own colour is a patch of one colour region, which no colour detector (nor a course
+  designer choosing mark colours) can tell apart; near colours stay (distractors, the tint
+  beside a range), so hue discrimination is still tested;
 - ``distractors``: round objects of near-mark colours on the horizon, off the course (orange
   beside red, teal beside green, violet beside blue: hues 8-10 beyond a palette range), 0.5-3°
   across;
@@ -38,6 +44,7 @@ __all__ = [
     "PHOTOS",
     "Pole",
     "draw_poles",
+    "off_palette_hue",
     "paint_distractors",
     "paint_room",
     "poles",
@@ -56,6 +63,11 @@ POLE_WIDTH_PX = (2.0, 8.0)
 #: Ranges :func:`random_room` draws from.
 FLOOR_SATURATION_RANGE = (60.0, 160.0)
 WALL_TINT_SATURATION = (60.0, 120.0)
+#: Hue units around each palette range that walls and photographs keep clear of.
+PALETTE_MARGIN = 4.0
+#: Saturation a photograph's palette-coloured pixels are brought down to (below the
+#: detector's mask floor of 100, with room for the colour casts' gains).
+PHOTO_PALETTE_SAT = 50.0
 
 
 @functools.lru_cache(maxsize=1)
@@ -116,19 +128,57 @@ def _photo_wall(rng: np.random.Generator, rows: int, cols: int) -> FloatImage | 
     return np.asarray(np.hstack(tiles)[:, :cols], np.float32)
 
 
-def paint_room(pan: FloatImage, base_row: int, seed: int, conditions: Any) -> None:
+def _in_ranges(hue: float, ranges: Sequence[tuple[int, int]], margin: float) -> bool:
+    for lo, hi in ranges:
+        span = (hi - lo) % 180
+        if (hue - (lo - margin)) % 180.0 <= span + 2.0 * margin:
+            return True
+    return False
+
+
+def off_palette_hue(hue: float, ranges: Sequence[tuple[int, int]],
+                    margin: float = PALETTE_MARGIN) -> float:
+    """``hue``, or the nearest hue (0.5 steps) outside every palette range grown by
+    ``margin``."""
+    for step in range(361):
+        for h in ((hue + 0.5 * step) % 180.0, (hue - 0.5 * step) % 180.0):
+            if not _in_ranges(h, ranges, margin):
+                return h
+    return hue  # the palette covers every hue
+
+
+def _desaturate_palette(wall: FloatImage, ranges: Sequence[tuple[int, int]]) -> None:
+    """Bring the wall's pixels of palette hues down to ``PHOTO_PALETTE_SAT``, in place."""
+    hsv = cv2.cvtColor(np.clip(wall, 0, 255).astype(np.uint8), cv2.COLOR_BGR2HSV)
+    hue = hsv[:, :, 0].astype(np.float32)
+    inside = np.zeros(hue.shape, bool)
+    for lo, hi in ranges:
+        span = (hi - lo) % 180
+        inside |= (hue - (lo - PALETTE_MARGIN)) % 180.0 <= span + 2.0 * PALETTE_MARGIN
+    inside &= hsv[:, :, 1] > PHOTO_PALETTE_SAT
+    if not inside.any():
+        return
+    hsv[:, :, 1][inside] = int(PHOTO_PALETTE_SAT)
+    wall[inside] = cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR)[inside]
+
+
+def paint_room(pan: FloatImage, base_row: int, seed: int, conditions: Any,
+               palette_ranges: Sequence[tuple[int, int]] = ()) -> None:
     """Paint the floor, the wall and the wall's tint that ``conditions`` ask for into the
-    panorama (float BGR, before the light's gains), in place."""
+    panorama (float BGR, before the light's gains), in place; the wall's photograph and tint
+    keep off ``palette_ranges`` (hue ranges, OpenCV units, inclusive, may wrap)."""
     rng = np.random.default_rng([seed, 0x200A])
     h, wp = pan.shape[:2]
     if conditions.wall == "photo":
         wall = _photo_wall(rng, base_row, wp)
         if wall is not None:
+            _desaturate_palette(wall, palette_ranges)
             pan[:base_row] = wall
     if conditions.wall_hue is not None:
         sat = float(rng.uniform(*WALL_TINT_SATURATION))
         grey = pan[:base_row].mean(axis=2)
-        tint = _hsv_image(np.full(grey.shape, float(conditions.wall_hue), np.float32),
+        hue = off_palette_hue(float(conditions.wall_hue), palette_ranges)
+        tint = _hsv_image(np.full(grey.shape, hue, np.float32),
                           np.full(grey.shape, sat, np.float32), np.clip(grey * 1.1, 0, 255))
         pan[:base_row] = tint
     if conditions.floor != "plain" and base_row < h:

@@ -19,7 +19,7 @@ import json
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -29,11 +29,14 @@ import numpy as np
 from marknav.vision.bench import Image, match_marks, plain_hough, to_hsv
 from marknav.vision.composite import COMPOSITE_PALETTE, composite_frames, load_photos
 from marknav.vision.detect import Detector, DetectorConfig, Mark
+from marknav.vision.detector_setup import CameraDetector, camera_detector_config
 from marknav.vision.palette import ColourRange, Palette
 
 __all__ = [
+    "CAMERA",
     "Label",
     "LabelledPhoto",
+    "camera_config",
     "default_corpus",
     "load_corpus",
     "real_false_marks",
@@ -120,26 +123,45 @@ def _resized(image: Image, long_side: int) -> tuple[Image, float]:
                       np.uint8), s
 
 
+#: marknav's default camera and marks (missions/slalom.yaml: 640 px wide, f = 590 px, marks of
+#: 100 mm) with `camera.detect.max_range_mm: 6000` (marks smaller than 8.9 px are not searched for).
+CAMERA = {"focal_px": 590.0, "mark_radius_mm": 100.0, "max_range_mm": 6000.0}
+CAMERA_WIDTH, CAMERA_HEIGHT = 640, 480
+
+
+def camera_config(width: int, horizon_row: float | None = None,
+                  horizon_tolerance_px: float = 24.0) -> DetectorConfig:
+    """The config perception builds for :data:`CAMERA` scaled to ``width`` px."""
+    cfg = camera_detector_config(
+        width=width, height=round(width * CAMERA_HEIGHT / CAMERA_WIDTH),
+        focal_px=CAMERA["focal_px"] * width / CAMERA_WIDTH,
+        mark_radius_mm=CAMERA["mark_radius_mm"], max_range_mm=CAMERA["max_range_mm"],
+        horizon_tolerance_deg=None)
+    return replace(cfg, horizon_row=horizon_row, horizon_tolerance_px=horizon_tolerance_px)
+
+
 def real_false_marks(photos: Sequence[LabelledPhoto], palette: Palette, long_side: int, *,
-                     horizon: bool = False) -> dict[str, Any]:
+                     horizon: bool = False, camera: bool = False) -> dict[str, Any]:
     """Marks found in the natural photographs (resized to ``long_side``) that are neither a
     labelled mark nor an ignored object, per photograph. ``horizon``: with the horizon prior
     at the image's middle row (the photographs were not taken at mark height: this is the
-    figure for a detector configured for marknav's level camera)."""
+    figure for a detector configured for marknav's level camera). ``camera``: the minimum
+    radius of :data:`CAMERA` (:func:`camera_config`) instead of the fixed pixel default."""
     false = 0
     where: dict[str, int] = {}
     natural = [p for p in photos if p.natural]
-    detectors: dict[int, Detector] = {}
+    detectors: dict[tuple[int, int], Detector] = {}
     for photo in natural:
         image, s = _resized(photo.image, long_side)
-        h = image.shape[0]
-        if h not in detectors:
-            config = DetectorConfig(horizon_row=(h - 1) / 2.0,
-                                    horizon_tolerance_px=0.05 * h) if horizon else None
-            detectors[h] = Detector(palette, config)
+        h, w = image.shape[:2]
+        if (h, w) not in detectors:
+            row, tol = ((h - 1) / 2.0, 0.05 * h) if horizon else (None, 24.0)
+            config = camera_config(w, row, tol) if camera else \
+                DetectorConfig(horizon_row=row, horizon_tolerance_px=tol)
+            detectors[(h, w)] = Detector(palette, config)
         known = [Label(lab.colour, lab.x * s, lab.y * s, lab.radius * s)
                  for lab in photo.marks + photo.ignore]
-        n = sum(1 for m in detectors[h].detect(image)
+        n = sum(1 for m in detectors[(h, w)].detect(image)
                 if not any(_hit(lab, m, colour=False) or
                            math.hypot(m.x - lab.x, m.y - lab.y) < lab.radius for lab in known))
         false += n
@@ -227,10 +249,18 @@ def run_real_bench(corpus: str | Path, *, per_condition: int = 8, repeats: int =
             real[f"false_{side}"] = real_false_marks(photos, negative, side)
             real[f"false_{side}_horizon"] = real_false_marks(photos, negative, side,
                                                               horizon=True)
+            real[f"false_{side}_camera"] = real_false_marks(photos, negative, side,
+                                                             camera=True)
         detector = Detector(negative)
         at_640 = [_resized(p.image, 640)[0] for p in photos if p.natural]
         real["timing_640"] = _timings(at_640, detector.detect, repeats,
                                       None if hough else 0)
+        # What perception runs: the camera's minimum radius and the horizon prior (3°).
+        robot = CameraDetector(negative, width=CAMERA_WIDTH, height=CAMERA_HEIGHT,
+                               focal_px=CAMERA["focal_px"],
+                               mark_radius_mm=CAMERA["mark_radius_mm"],
+                               max_range_mm=CAMERA["max_range_mm"], horizon_tolerance_deg=3.0)
+        real["timing_640_camera_horizon"] = _timings(at_640, robot.detect, repeats, 0)
         backgrounds = load_photos(Path(corpus) / "real")
         composite, images = composite_figures(backgrounds, per_condition=per_condition)
         composite["timing"] = _timings(images, Detector(COMPOSITE_PALETTE).detect, 1,

@@ -10,7 +10,7 @@ import numpy as np
 
 from marknav.planning.kinematics import Pose
 from marknav.sim.camera import CameraConfig, Renderer
-from marknav.sim.scenery import PHOTOS, near_hues, random_room
+from marknav.sim.scenery import PALETTE_MARGIN, PHOTOS, near_hues, off_palette_hue, random_room
 from marknav.sim.world import Conditions, MarkSpec, World, generate_world, random_conditions
 from marknav.vision.detect import Detector
 from marknav.vision.palette import ColourRange
@@ -44,10 +44,28 @@ def test_a_photo_wall_comes_from_the_packaged_photographs() -> None:
 
 
 def test_a_dominant_hue_tints_the_wall() -> None:
-    image = _frame(Conditions(wall_hue=60.0, noise_sigma=0.0))
+    image = _frame(Conditions(wall_hue=150.0, noise_sigma=0.0))
     hsv = cv2.cvtColor(image[:150], cv2.COLOR_BGR2HSV)
-    assert abs(float(np.median(hsv[:, :, 0])) - 60.0) <= 4.0
+    assert abs(float(np.median(hsv[:, :, 0])) - 150.0) <= 4.0
     assert float(np.median(hsv[:, :, 1])) >= 50.0
+
+
+def test_a_tint_of_a_mark_colour_moves_just_past_its_range() -> None:
+    image = _frame(Conditions(wall_hue=60.0, noise_sigma=0.0))  # green's range is 40..85
+    hue = float(np.median(cv2.cvtColor(image[:150], cv2.COLOR_BGR2HSV)[:, :, 0]))
+    assert 30.0 <= hue < 40.0 - PALETTE_MARGIN + 1.0 or 85.0 + PALETTE_MARGIN - 1.0 < hue <= 95.0
+    assert off_palette_hue(101.0, [(c.hue_lo, c.hue_hi) for c in PALETTE]) == 90.5
+    assert off_palette_hue(150.0, [(c.hue_lo, c.hue_hi) for c in PALETTE]) == 150.0
+
+
+def test_a_photo_wall_holds_no_mark_coloured_surface() -> None:
+    image = _frame(Conditions(wall="photo", noise_sigma=0.0))
+    hsv = cv2.cvtColor(image[:200], cv2.COLOR_BGR2HSV)
+    saturated = hsv[:, :, 1] >= 100  # the detector's mask floor
+    for colour in PALETTE:
+        inside = np.vectorize(colour.contains)(hsv[:, :, 0])
+        assert np.count_nonzero(saturated & inside) < 0.001 * saturated.size, colour.name
+    assert np.count_nonzero(hsv[:, :, 1] >= 60) > 0  # the photograph keeps its other colours
 
 
 def test_distractors_have_near_colours_and_are_not_marks() -> None:

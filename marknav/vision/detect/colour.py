@@ -15,6 +15,7 @@ coverage (α) transform.
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 from collections.abc import Sequence
@@ -71,6 +72,37 @@ def _circular_mean_hue(hist: FloatArray) -> float | None:
     if hue >= HUE_MAX - 1e-9:  # ``x % 180`` of a tiny negative number rounds to 180.0
         hue = 0.0
     return hue
+
+
+@functools.lru_cache(maxsize=8)
+def _subsample_index(h: int, w: int, scale: int) -> npt.NDArray[np.intp]:
+    """Flat pixel indices (scale² × th × tw) of the blocks :func:`balance_subsample` reads."""
+    sh, sw = (h // scale, w // scale) if scale > 1 else (h, w)
+    step = max(1, sw // 48)
+    th, tw = max(1, sh // step), max(1, sw // step)
+    # cv2.INTER_NEAREST: source index floor(dst · src / dst_size).
+    ys = (np.arange(th) * (sh / th)).astype(np.intp) * scale
+    xs = (np.arange(tw) * (sw / tw)).astype(np.intp) * scale
+    out = [((ys + dy)[:, None] * w + (xs + dx)[None, :])
+           for dy in range(scale) for dx in range(scale)]
+    return np.stack(out)
+
+
+def balance_subsample(image: U8Array | Mat, scale: int) -> Mat:
+    """The subsample :meth:`_ColourStage.white_balance` reads of ``image`` box-reduced by
+    ``scale`` (1 or 2), taken from ``image`` itself: the same pixels (nearest neighbour of the
+    reduced image, each the mean of its ``scale``×``scale`` block) without reducing the frame."""
+    h, w = image.shape[:2]
+    index = _subsample_index(h, w, scale)
+    flat = np.ascontiguousarray(image).reshape(-1, 3)
+    taken = np.take(flat, index, axis=0)
+    if scale == 1:
+        return np.ascontiguousarray(taken[0])
+    acc = np.add.reduce(taken, axis=0, dtype=np.uint16)
+    # INTER_AREA rounds the block mean to nearest.
+    n = scale * scale
+    out: Mat = ((acc + n // 2) // n).astype(np.uint8)
+    return out
 
 
 def _diagonal(gains: tuple[float, float, float]) -> npt.NDArray[np.float32]:
@@ -149,6 +181,10 @@ class _ColourStage(_DetectorBase):
         step = max(1, w // 48)
         tiny = cv2.resize(image, (max(1, w // step), max(1, h // step)),
                           interpolation=cv2.INTER_NEAREST)
+        return self.balance_sample(tiny)
+
+    def balance_sample(self, tiny: U8Array | Mat) -> tuple[tuple[float, float, float], float]:
+        """:meth:`white_balance` of its ≈ 48-pixel-wide subsample."""
         lo, hi = self.config.gain_limits
         gains = (1.0, 1.0, 1.0)
         grey = -1.0

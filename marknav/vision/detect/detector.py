@@ -21,9 +21,11 @@ import numpy.typing as npt
 
 from marknav.vision.detect.arcs import _ArcMarks
 from marknav.vision.detect.base import _Frame
-from marknav.vision.detect.colour import _NO_COLOUR, _diagonal
+from marknav.vision.detect.colour import _NO_COLOUR, _diagonal, balance_subsample
+from marknav.vision.detect.gate import SearchBuffers, coarse_sample, search_products
 from marknav.vision.detect.geometry import (
     Contour,
+    Mat,
     U8Array,
     _flat_stretch,
     _from_rotated_rect,
@@ -72,6 +74,7 @@ class Detector(_ArcMarks):
         self._kernel3 = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
         self.last_gains: tuple[float, float, float] = (1.0, 1.0, 1.0)
         self.last_grey_level: float = 0.0
+        self._buffers = SearchBuffers()
 
     def detect(self, image: U8Array) -> list[Mark]:
         """All marks in a BGR ``uint8`` image (H×W×3), largest first."""
@@ -84,31 +87,33 @@ class Detector(_ArcMarks):
             self.config = self._base_config.for_width(w)
         cfg = self.config
         scale = cfg.downscale if min(h, w) >= 64 * cfg.downscale else 1
-        if scale > 1:
-            sw, sh = w // scale, h // scale
-            small = cv2.resize(image, (sw, sh), interpolation=cv2.INTER_AREA)
-        else:
-            sw, sh, small = w, h, image
+        sw, sh = (w // scale, h // scale) if scale > 1 else (w, h)
+        # The coarse gate (:mod:`.gate`) needs marks of at least 4 px radius and the
+        # half-resolution search it narrows down.
+        coarse = coarse_sample(image) if cfg.coarse_gate and scale > 1 and \
+            cfg.min_radius >= 4.0 else None
+        whole = None
+        if coarse is None and scale > 1:
+            # Whole search pixels only (an odd last row/column is left out), so that each is
+            # the mean of its 2×2 block, as in the coarse gate's rectangles.
+            whole = cv2.resize(image[:sh * scale, :sw * scale], (sw, sh),
+                               interpolation=cv2.INTER_AREA)
         if cfg.white_balance:
-            gains, grey = self.white_balance(small)
+            gains, grey = (self.white_balance(whole) if whole is not None else
+                           self.balance_sample(balance_subsample(image, scale)))
         else:
-            gains, grey = (1.0, 1.0, 1.0), float(np.mean(cv2.mean(small)[:3]))
+            gains, grey = (1.0, 1.0, 1.0), float(np.mean(cv2.mean(image)[:3]))
         self.last_gains, self.last_grey_level = gains, grey
-        balance = None
-        if max(abs(g - 1.0) for g in gains) > 0.02:
-            balance = _diagonal(gains)
-            small = cv2.transform(small, balance)
-        hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
+        balance = _diagonal(gains) if max(abs(g - 1.0) for g in gains) > 0.02 else None
         v_floor = self._value_floor(grey)
-        mask = cv2.inRange(hsv, (0, self._sat_min, v_floor), (255, 255, 255))
-        if cfg.hue_gate:
-            # Only hues of the palette: a saturated floor, wall or board of another hue (wood
-            # beside a red mark, teal beside green) is background, not part of a mark's blob.
-            cv2.bitwise_and(mask, cv2.LUT(hsv[:, :, 0], self._gate_lut), dst=mask)
-        if cfg.open_size > 1:
-            mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, self._kernel)
+        products = search_products(image, (sw, sh), scale, coarse, whole, balance, self._sat_min,
+                                   v_floor, self._gate_lut if cfg.hue_gate else None,
+                                   self._kernel if cfg.open_size > 1 else None,
+                                   self._buffers, self._horizon_band(h, scale))
+        small, hsv, mask = products.small, products.hsv, products.mask
         contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
-        frame = _Frame(image, w, h, small, hsv, mask, w / sw, h / sh, balance, v_floor)
+        frame = _Frame(image, w, h, small, hsv, mask, float(scale), float(scale), balance,
+                       v_floor)
         min_area = 0.4 * math.pi * (cfg.min_radius / scale) ** 2
         band = self._horizon_band(h, scale)
         marks: list[Mark] = []
@@ -243,11 +248,33 @@ class Detector(_ArcMarks):
             own = cv2.morphologyEx(own, cv2.MORPH_OPEN, self._kernel3)
             parts, _ = cv2.findContours(own, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
                                         offset=(bx, by))
+            found: list[Mark] = []
             for part in parts:
                 part_area = cv2.contourArea(part)
                 if len(part) < 6 or part_area < min_area or part_area > 0.97 * area:
                     continue
-                marks.extend(self._blob(frame, part, part_area))
+                found.extend(self._blob(frame, part, part_area))
+            if cfg.bridge_px > 0 and len(parts) >= 2:
+                # The cluster's pieces may be one mark cut by a thin occluder (a mark against
+                # a region of another palette colour, a pole across it).
+                found.extend(self._joined(frame, own, (bx, by), len(parts), min_area))
+            marks.extend(found)
+        return marks
+
+    def _joined(self, frame: _Frame, own: Mat, origin: tuple[int, int], pieces: int,
+                min_area: float) -> list[Mark]:
+        """Whole marks among the shapes of a mask (search resolution, at ``origin``) closed
+        across gaps of up to ``bridge_px``, where the closing joined some of its ``pieces``."""
+        k = 2 * math.ceil((self.config.bridge_px / frame.sx + 2.0) / 2.0) + 1
+        kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
+        shut = cv2.morphologyEx(own, cv2.MORPH_CLOSE, kernel)
+        shapes, _ = cv2.findContours(shut, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
+                                     offset=origin)
+        if len(shapes) >= pieces:
+            return []  # nothing joined
+        marks: list[Mark] = []
+        for shape in shapes:
+            marks.extend(self._bridged_one(frame, shape, min_area))
         return marks
 
     def _blob(self, frame: _Frame, contour: Contour, area: float) -> list[Mark]:

@@ -67,6 +67,9 @@ class DetectorConfig:
     #: Blob search at 1/downscale resolution (1 or 2); marks are measured at full resolution,
     #: whole ones of ``fine_radius`` or more in the search image.
     downscale: int = 2
+    #: Search at half resolution only around the pixels of a quarter-resolution sample that
+    #: pass the search mask (:mod:`.gate`; frames at least 128 px high, ``min_radius`` >= 4).
+    coarse_gate: bool = True
     #: Search only pixels whose hue is a palette colour's (within ``hue_margin``): saturated
     #: surfaces of other hues stay out of the marks' blobs.
     hue_gate: bool = True

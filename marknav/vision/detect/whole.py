@@ -47,6 +47,9 @@ _SECTORS = 8
 #: they are told apart (a textured floor or a cast stays below it; a board of a near colour,
 #: a wood floor under a grey wall do not).
 _SECTOR_SPREAD = 30.0
+#: The quadrants' chroma spread from which the sectors are looked at (below ``_SECTOR_SPREAD``:
+#: a quadrant averages two sectors).
+_QUADRANT_SPREAD = 15.0
 
 
 @dataclass
@@ -201,6 +204,8 @@ class _WholeMarks(_ColourStage):
         board of a near colour behind half of it), ``binary`` is redone per sector of
         ``_SECTORS`` around the centre, each against its own background's colour: against
         the mean background, a near-colour board counts as half mark."""
+        if not _quadrants_differ(roi, local, back):
+            return
         ys, xs = np.nonzero(back)
         if len(ys) < 8:
             return
@@ -229,6 +234,29 @@ class _WholeMarks(_ColourStage):
             part = cv2.threshold(cv2.transform(roi, transform), 127, 255, cv2.THRESH_BINARY)[1]
             wedge = sector == k
             binary[wedge] = part[wedge]
+
+
+def _quadrants_differ(roi: Mat, local: _Ellipse, back: Mat) -> bool:
+    """Whether the background's colour may differ around the mark: the chroma of its four
+    quadrants (about the centre) spreads by more than ``_QUADRANT_SPREAD``. A handful of
+    OpenCV calls, so that the sector split is only paid for where it may matter."""
+    h, w = roi.shape[:2]
+    cx, cy = min(max(1, round(local.cx)), w - 1), min(max(1, round(local.cy)), h - 1)
+    chromas = []
+    for ys, xs in ((slice(0, cy), slice(0, cx)), (slice(0, cy), slice(cx, w)),
+                   (slice(cy, h), slice(0, cx)), (slice(cy, h), slice(cx, w))):
+        part = back[ys, xs]
+        if cv2.countNonZero(part) < 4:
+            continue
+        b, g, r, _ = cv2.mean(roi[ys, xs], mask=part)
+        grey = (b + g + r) / 3.0
+        chromas.append((b - grey, g - grey, r - grey))
+    for i, a in enumerate(chromas):
+        for c in chromas[i + 1:]:
+            if (a[0] - c[0]) ** 2 + (a[1] - c[1]) ** 2 + (a[2] - c[2]) ** 2 >= \
+                    _QUADRANT_SPREAD ** 2:
+                return True
+    return False
 
 
 def _sector_of(dx: npt.NDArray[np.floating[Any]], dy: npt.NDArray[np.floating[Any]],

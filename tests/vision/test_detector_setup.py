@@ -1,0 +1,120 @@
+"""The detector a mission's camera calls for (``camera.detect``): minimum radius from the
+farthest range that matters, the horizon prior from the principal point and the pitch/roll
+tolerance, and perception building it."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from marknav.behaviours import keys
+from marknav.behaviours.perception import Perception
+from marknav.cli import main
+from marknav.missions.schema import Mission, load_mission
+from marknav.testing import FakeRobot
+from marknav.vision.detector_setup import HORIZON_SLACK_PX, ROBOT_FLOOR_PX, CameraDetector
+from marknav.vision.sources import Frame
+
+MISSION = """\
+name: t
+route: [red]
+marks: {radius_mm: 100, colours: {red: {hue: [170, 10], side: left}}}
+camera:
+  focal_px: 590
+DETECT"""
+
+
+def _mission(tmp_path: Path, detect: str = "") -> Path:
+    p = tmp_path / "m.yaml"
+    p.write_text(MISSION.replace("DETECT", detect))
+    return p
+
+
+def test_the_default_is_the_horizon_band_with_the_fixed_minimum(tmp_path: Path) -> None:
+    cfg = CameraDetector.for_mission(load_mission(_mission(tmp_path))).config_for(640, 480)
+    assert cfg.min_radius == 5.0 and cfg.horizon_row == pytest.approx(239.5)
+
+
+def test_a_farthest_range_derives_the_minimum_radius_and_the_horizon_band(
+        tmp_path: Path) -> None:
+    mission = load_mission(_mission(tmp_path, "  detect: {max_range_mm: 6000}\n"))
+    cfg = CameraDetector.for_mission(mission).config_for(640, 480)
+    assert cfg.min_radius == pytest.approx(0.9 * 590 * 100 / 6000)  # 8.85 px at 6 m
+    assert cfg.min_partial_radius == pytest.approx(1.6 * cfg.min_radius)
+    assert cfg.horizon_row == pytest.approx(239.5)
+    t = math.tan(math.radians(3.0))
+    assert cfg.horizon_tolerance_px == pytest.approx((590 + 320) * t + HORIZON_SLACK_PX)
+
+
+def test_a_half_size_frame_gets_the_camera_scaled_to_it(tmp_path: Path) -> None:
+    mission = load_mission(_mission(tmp_path, "  detect: {max_range_mm: 6000}\n"))
+    det = CameraDetector.for_mission(mission, horizon_row=250.0)
+    full, half = det.config_for(640, 480), det.config_for(320, 240)
+    assert half.min_radius == pytest.approx(max(ROBOT_FLOOR_PX, full.min_radius / 2))
+    assert half.horizon_row == pytest.approx((250.0 + 0.5) / 2 - 0.5)
+    assert half.horizon_tolerance_px < full.horizon_tolerance_px
+
+
+def test_null_settings_give_the_plain_detector(tmp_path: Path) -> None:
+    mission = load_mission(_mission(
+        tmp_path, "  detect: {max_range_mm: null, horizon_tolerance_deg: null}\n"))
+    cfg = CameraDetector.for_mission(mission).config_for(640, 480)
+    assert cfg.horizon_row is None and cfg.min_radius == 5.0
+
+
+def test_marks_off_the_horizon_and_too_far_are_not_reported(tmp_path: Path) -> None:
+    mission = load_mission(_mission(tmp_path, "  detect: {max_range_mm: 6000}\n"))
+    image = np.full((480, 640, 3), 128, np.uint8)
+    cv2.circle(image, (150, 240), 25, (0, 0, 255), -1)  # on the horizon
+    cv2.circle(image, (500, 60), 25, (0, 0, 255), -1)  # 10° above it
+    cv2.circle(image, (320, 240), 6, (0, 0, 255), -1)  # a mark beyond 6 m
+    found = CameraDetector.for_mission(mission).detect(image)
+    assert [(m.colour, round(m.x)) for m in found] == [("red", 150)]
+
+
+@pytest.mark.parametrize(("detect", "message"), [
+    ("  detect: {max_range_mm: -5}\n", "6:26: camera.detect.max_range_mm:"),
+    ("  detect: {horizon_tolerance_deg: 45}\n", "camera.detect.horizon_tolerance_deg:"),
+    ("  detect: {horizon: 3}\n", "camera.detect.horizon:"),
+])
+def test_bad_detect_settings_name_the_line_and_field(tmp_path: Path, detect: str, message: str,
+                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["validate", str(_mission(tmp_path, detect))]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+
+
+def test_perception_reports_only_the_marks_the_camera_detector_accepts(
+        blackboard: object, manual_clock: object,
+        mission_factory: Callable[..., Mission]) -> None:
+    image = np.full((480, 640, 3), 120, np.uint8)
+    cv2.circle(image, (200, 240), 30, (0, 0, 230), -1)  # on the horizon
+    cv2.circle(image, (480, 70), 30, (0, 0, 230), -1)  # a red lamp far above it
+    frames = [Frame(image=image, t=0.0, index=0)]
+    counts = []
+    for detect in ({}, {"horizon_tolerance_deg": None}):
+        perception = Perception()
+        perception.setup(robot=FakeRobot(clock=manual_clock), clock=manual_clock,
+                         mission=mission_factory(camera={"detect": detect}),
+                         camera=_Frames(frames))
+        perception.tick_once()
+        counts.append(len(perception.blackboard.get(keys.MARKS)))
+    assert counts == [1, 2]
+
+
+class _Frames:
+    name = "frames"
+
+    def __init__(self, frames: list[Frame]) -> None:
+        self.frames = frames
+
+    def read(self) -> Frame | None:
+        return self.frames[0]
+
+    def close(self) -> None:
+        pass
