@@ -157,14 +157,16 @@ def still_server() -> Iterator[MjpegServer]:
 def test_stream_is_multipart_jpeg_of_the_still(still_server: MjpegServer) -> None:
     assert re.fullmatch(r"http://127\.0\.0\.1:\d+/stream\.mjpg", still_server.stream_url)
     assert still_server.port != 0
+    original = smarties()
+    # taken before connecting: every part the server sends this client is this publication or
+    # a later one (taken after, parts already queued in the socket could be older)
+    first = still_server.streamer.latest() or still_server.streamer.wait_next(-1, 10.0)
+    assert first is not None
     reader = MjpegReader(still_server.port)
     try:
         assert reader.status == 200
         assert reader.headers["content-type"] == f"multipart/x-mixed-replace; boundary={BOUNDARY}"
         assert "no-cache" in reader.headers["cache-control"]
-        original = smarties()
-        first = still_server.streamer.latest()
-        assert first is not None
         t0 = time.monotonic()
         for _ in range(4):
             jpeg = reader.part()
