@@ -10,11 +10,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from marknav.cli import main
 from marknav.planning.kinematics import Pose
-from marknav.runs.random_mission import PALETTE, random_mission, write_random_mission
+from marknav.runs.random_mission import PALETTE, random_mission
 from marknav.sim import scenery
 from marknav.sim.camera import CameraConfig, Renderer
-from marknav.sim.world import LIGHTING_GAIN_RANGE, Background, Conditions, MarkSpec, World
+from marknav.sim.world import (
+    LIGHTING_GAIN_RANGE,
+    Background,
+    Conditions,
+    MarkSpec,
+    World,
+    load_world,
+)
 from marknav.vision.detect import Detector
 from marknav.vision.palette import ColourRange
 
@@ -65,12 +73,22 @@ def test_a_near_mark_on_a_floor_of_its_hue_is_found(colour: str, floor: str,
     assert centre == [colour]
 
 
-def test_a_seed_gives_one_mission_and_its_files_replay_it(tmp_path: Path) -> None:
+def test_a_seed_gives_one_mission_and_its_files_replay_it(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     a, b = random_mission(17), random_mission(17)
     assert a.mission_doc == b.mission_doc and a.world_doc == b.world_doc
     assert random_mission(18).world_doc != a.world_doc
     for name, spec in a.mission_doc["marks"]["colours"].items():
         assert (tuple(spec["hue"]), spec["sat_min"]) == PALETTE[name]
-    mission_path, world_path = write_random_mission(17, tmp_path / "m")
-    assert "sat_min: 180" in mission_path.read_text(encoding="utf-8")
-    assert world_path.read_text(encoding="utf-8").count("colour:") == len(a.world.marks)
+    out = tmp_path / "m"
+    assert main(["random-mission", "--seed", "17", "--out", str(out)]) == 0
+    assert f"replay: marknav run {out / 'mission.yaml'} --seed 17" in capsys.readouterr().out
+    assert main(["validate", str(out / "mission.yaml")]) == 0  # its sim.world is world.yaml
+    written = load_world(out / "world.yaml")
+    assert written.marks == a.world.marks and written.course == a.world.course
+
+
+def test_a_negative_seed_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["random-mission", "--seed", "-1", "--out", "x"]) == 2
+    err = capsys.readouterr().err
+    assert "--seed" in err and "≥ 0" in err and "Traceback" not in err
