@@ -45,15 +45,25 @@ Side = Literal["left", "right"]
 #: The mission spec that means "draw a mission per run".
 RANDOM = "random"
 
-#: Colour name → (OpenCV hue range, saturation floor): ranges that do not overlap.
+#: Colour name → (OpenCV hue range, saturation floor), written as a user calibrates a palette:
+#: each range holds the hues the camera gives its mark over the whole range of randomised
+#: light (:data:`marknav.sim.world.LIGHTING_GAIN_RANGE`, every cast), after the detector's white
+#: balance, and the ranges do not overlap. The simulator paints a mark the middle of its range.
+#: Orange is wide and off-centre in what it holds: bright light clips its red channel, and the
+#: camera reads the paint of hue 14 anywhere from 12.6 (dim, warm) to 23.8 (bright, warm). The
+#: saturation floor sits between what the room reaches in a mark's own hue (floors up to
+#: :data:`marknav.sim.scenery.FLOOR_SATURATION_RANGE`'s 160, +8 % grain) and what the marks
+#: read (≥ 230 at the 5th percentile in the dimmest, noisiest light): with a floor of 100, a
+#: near mark standing on a wood floor or carpet of its hue merged with it and was not found.
+#: ``tests/runs/test_random_mission.py`` measures both.
 PALETTE: dict[str, tuple[tuple[int, int], int]] = {
-    "red": ((170, 8), 100),
-    "orange": ((10, 18), 100),
-    "yellow": ((21, 34), 100),
-    "green": ((42, 80), 100),
-    "teal": ((84, 98), 100),
-    "blue": ((102, 128), 100),
-    "purple": ((134, 162), 100),
+    "red": ((166, 2), 180),
+    "orange": ((3, 25), 180),
+    "yellow": ((26, 36), 180),
+    "green": ((42, 80), 180),
+    "teal": ((84, 98), 180),
+    "blue": ((102, 128), 180),
+    "purple": ((134, 162), 180),
 }
 COLOURS_RANGE = (2, 5)
 ROUTE_LENGTH_RANGE = (3, 12)
