@@ -54,7 +54,7 @@ from marknav.planning.kinematics import Pose, to_world_frame
 from marknav.planning.wheel_ratio import WheelRatioCalibrator, WheelRatioStep
 from marknav.vision.camera_setup import as_power_law, mission_intrinsics, mission_range_model
 from marknav.vision.estimate import Pinhole, PowerLaw, RangeModel, estimate
-from marknav.vision.range_learning import RangeLawLearner, RangeLawStep
+from marknav.vision.range_learning import MIN_RADIUS_FRACTION, RangeLawLearner, RangeLawStep
 from marknav.vision.sources import Frame, FrameSource
 from marknav.vision.undistort import Intrinsics, undistort_mark
 
@@ -252,7 +252,8 @@ class Perception(PerceptionBase):
                                                                           self._camera)
                 prior = as_power_law(self._range_model)
                 if mission.camera.learn_range and prior is not None:
-                    self.range_learner = RangeLawLearner(prior=prior)
+                    self.range_learner = RangeLawLearner(
+                        prior=prior, min_radius_px=MIN_RADIUS_FRACTION * mission.camera.width)
                     self._range_model = prior
             if self._detector is None:
                 from marknav.vision.detect import Detector
