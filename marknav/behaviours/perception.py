@@ -296,8 +296,9 @@ class Perception(PerceptionBase):
             self._calibrate(calibrated, pose, sensitivity, marks)
         if self.range_learner is not None:
             self._learn_range(pose, found, marks, width, height)
+        sigma = self.range_learner.sigma[0] if self.range_learner is not None else 0.0
         info = keys.FrameInfo(index=frame.index, t=t, width=width, height=height,
-                              marks=len(marks))
+                              marks=len(marks), range_sigma=sigma)
         return Observation(frame=info, marks=marks, pose=pose)
 
     def _calibrate(self, robot: WheelCalibratable, pose: Pose,

@@ -100,7 +100,9 @@ def test_a_bump_is_not_taken_for_a_range_error() -> None:
     assert max(rng_errors) < 0.03
     unguarded = RangeLawLearner(prior=PowerLaw(59752.0, -1.00242))
     _approach(unguarded, jump_at=800.0)
-    assert (unguarded.rejected > 0
+    # Without it the jump makes the sightings disagree: the fit is rejected, or too scattered
+    # (χ > 1 widens its σ) to replace the law, or it moves the law more than the guarded one.
+    assert (unguarded.rejected > 0 or not unguarded.steps
             or abs(_rel_error(unguarded.law, 1000.0)) > max(rng_errors))
 
 
