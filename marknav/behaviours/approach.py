@@ -42,7 +42,8 @@ from marknav.behaviours.base import DrivingBehaviour, SetupError, check_positive
 from marknav.behaviours.target import MEMORY_MIN_SEEN
 from marknav.planning.kinematics import WheelSpeeds, scale_to_limit, to_robot_frame
 
-__all__ = ["THRESHOLD_SPEED_FRACTION", "ApproachWhileCentring", "centring_command", "keep_clear"]
+__all__ = ["THRESHOLD_SPEED_FRACTION", "UNSETTLED_THRESHOLD_FLOOR", "ApproachWhileCentring",
+           "centring_command", "keep_clear", "unsettled_factor"]
 
 #: A passed or remembered mark this close to the target's estimate is the target itself.
 SAME_MARK_MM = 400.0
@@ -50,6 +51,28 @@ SAME_MARK_MM = 400.0
 #: Speed at the bypass threshold as a fraction of the approach speed; the bypass cruises at the
 #: same fraction by default, so the hand-over is smooth.
 THRESHOLD_SPEED_FRACTION = 0.8
+
+
+#: While the range law is still being learnt, the bypass threshold shrinks to at most this
+#: fraction of ``bypass_distance_mm`` (see :func:`unsettled_factor`).
+UNSETTLED_THRESHOLD_FLOOR = 0.75
+
+
+def unsettled_factor(frame: keys.FrameInfo | None) -> float:
+    """How much closer than ``bypass_distance_mm`` the bypass starts while the range law is
+    uncertain: ``exp(−σ)`` of the law's scale σ (``FrameInfo.range_sigma``), at least
+    :data:`UNSETTLED_THRESHOLD_FLOOR`; 1 for a fixed law.
+
+    A law that reads short (the mark is farther than it says) reaches the threshold early, on
+    the least driven distance, so the learner has the least to learn from; a law that reads
+    long has driven farther (by the same factor) and is usually settled by then. Holding the
+    decision a little while σ is large gives the short law the metres it needs (a law 25 %
+    short, its first mark 1.4 m ahead: no fit before the bypass, three bumps), and costs a
+    settled law nothing (σ ≈ 0.02: 2 %)."""
+    sigma = frame.range_sigma if frame is not None else 0.0
+    if not sigma > 0.0:
+        return 1.0
+    return max(UNSETTLED_THRESHOLD_FLOOR, math.exp(-sigma))
 
 
 def centring_command(
@@ -202,7 +225,7 @@ class ApproachWhileCentring(DrivingBehaviour):
         else:  # between frames: dead-reckon the mark from odometry
             forward, left = to_robot_frame(self.robot.pose(), target.world)
             angle = math.atan2(left, forward)
-        if forward <= s["bypass_distance_mm"]:
+        if forward <= s["bypass_distance_mm"] * unsettled_factor(frame):
             self.feedback_message = (f"{target.label} at {forward / 1000.0:.2f} m: "
                                      "bypass threshold reached")
             return Status.SUCCESS

@@ -141,13 +141,16 @@ def image_centre(width: int) -> float:
 @dataclass(frozen=True)
 class FrameInfo:
     """The latest frame perception processed: source index, mission-clock time it was processed,
-    size, number of marks found."""
+    size, number of marks found, and ``range_sigma``: while the range law is being learnt
+    (``camera.learn_range``), the σ of its scale (of ln d, ≈ the relative error of a range); 0
+    when the law is fixed."""
 
     index: int
     t: float
     width: int
     height: int
     marks: int
+    range_sigma: float = 0.0
 
 
 @dataclass(frozen=True, init=False)

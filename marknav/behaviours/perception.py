@@ -11,7 +11,7 @@ associate`), so every later node of the tick sees one consistent picture.
 While it watches, it calibrates odometry (``robot.calibrate_wheels``, on by default, with a robot
 that supports it): marks stand still, so their drift in the odometry frame measures the wheels'
 ratio (:mod:`marknav.planning.wheel_ratio`); each precise fit rescales the right wheel. The same
-stillness measures the range law (``camera.learn_range``, on by default): the distance driven
+stillness measures the range law (``camera.learn_range``, off by default): the distance driven
 toward a mark is what its radius change must mean (:mod:`marknav.vision.range_learning`); each
 accepted fit replaces the law (and restarts the wheel ratio's window, whose marks were placed
 with the old law). The two learners see different things: a wrong law moves a mark along the
@@ -54,7 +54,7 @@ from marknav.planning.kinematics import Pose, to_world_frame
 from marknav.planning.wheel_ratio import WheelRatioCalibrator, WheelRatioStep
 from marknav.vision.camera_setup import as_power_law, mission_intrinsics, mission_range_model
 from marknav.vision.estimate import Pinhole, PowerLaw, RangeModel, estimate
-from marknav.vision.range_learning import RangeLawLearner, RangeLawStep
+from marknav.vision.range_learning import MIN_RADIUS_FRACTION, RangeLawLearner, RangeLawStep
 from marknav.vision.sources import Frame, FrameSource
 from marknav.vision.undistort import Intrinsics, undistort_mark
 
@@ -254,7 +254,8 @@ class Perception(PerceptionBase):
                                                                           self._camera)
                 prior = as_power_law(self._range_model)
                 if mission.camera.learn_range and prior is not None:
-                    self.range_learner = RangeLawLearner(prior=prior)
+                    self.range_learner = RangeLawLearner(
+                        prior=prior, min_radius_px=MIN_RADIUS_FRACTION * mission.camera.width)
                     self._range_model = prior
             if self._detector is None:
                 from marknav.vision.detector_setup import CameraDetector
@@ -298,8 +299,9 @@ class Perception(PerceptionBase):
             self._calibrate(calibrated, pose, sensitivity, marks)
         if self.range_learner is not None:
             self._learn_range(pose, found, marks, width, height)
+        sigma = self.range_learner.sigma[0] if self.range_learner is not None else 0.0
         info = keys.FrameInfo(index=frame.index, t=t, width=width, height=height,
-                              marks=len(marks))
+                              marks=len(marks), range_sigma=sigma)
         return Observation(frame=info, marks=marks, pose=pose)
 
     def _calibrate(self, robot: WheelCalibratable, pose: Pose,

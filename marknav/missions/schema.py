@@ -311,7 +311,7 @@ class Camera(BaseModel):
         default=False,
         description="Learn the range law while driving (odometry measures how far the robot "
         "drove toward a mark that stands still); the learnt law is in the report. Off by "
-        "default: on long randomised courses it can drift from a correct law (see README).",
+        "default until it is measured on more runs (see README).",
     )
 
     @model_validator(mode="before")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
@@ -10,7 +11,14 @@ import pytest
 from py_trees.common import Status
 
 from marknav.behaviours import keys
-from marknav.behaviours.approach import ApproachWhileCentring, centring_command, keep_clear
+from marknav.behaviours.approach import (
+    UNSETTLED_THRESHOLD_FLOOR,
+    ApproachWhileCentring,
+    centring_command,
+    keep_clear,
+    unsettled_factor,
+)
+from marknav.behaviours.base import MarknavBehaviour
 from marknav.behaviours.target import SelectTarget
 
 
@@ -186,3 +194,42 @@ def test_approach_skirts_a_remembered_mark_nearer_than_the_target(rig):
     tree.tick()
     cmd = first_command(rig)
     assert cmd.left > cmd.right  # turning right, around the blue mark on its left
+
+
+class _Unsettled(MarknavBehaviour):
+    """Stands in for perception's range learner: the frame says how uncertain the law is."""
+
+    READS = (keys.FRAME,)
+    WRITES = (keys.FRAME,)
+
+    def __init__(self, sigma: float) -> None:
+        super().__init__("Unsettled")
+        self.sigma = sigma
+
+    def update(self) -> Status:
+        frame = self.read(keys.FRAME)
+        if frame is not None:
+            self.write(keys.FRAME, dataclasses.replace(frame, range_sigma=self.sigma))
+        return Status.SUCCESS
+
+
+@pytest.mark.parametrize(("sigma", "threshold"),
+                         [(0.0, 800.0), (0.02, 800.0 * math.exp(-0.02)), (0.3, 600.0)])
+def test_an_unsettled_range_law_holds_the_bypass_decision(rig, sigma, threshold):
+    rig.perception.place("red", x_mm=0, y_mm=2500)
+    node = ApproachWhileCentring()
+    root = py_trees.composites.Sequence("Root", memory=False, children=[
+        rig.perception, _Unsettled(sigma), SelectTarget(colour="red", waypoint=0), node])
+    log = rig.run(rig.tree(root), max_ticks=300)
+    assert log.reached
+    y = rig.robot.true_pose.y
+    assert 2500 - threshold <= y < 2500 - threshold + 0.05 * 205
+
+
+def test_unsettled_factor() -> None:
+    frame = keys.FrameInfo(index=0, t=0.0, width=640, height=480, marks=1)
+    assert unsettled_factor(None) == unsettled_factor(frame) == 1.0
+    assert unsettled_factor(dataclasses.replace(frame, range_sigma=0.1)) == pytest.approx(
+        math.exp(-0.1))
+    assert unsettled_factor(dataclasses.replace(frame, range_sigma=3.0)) == (
+        UNSETTLED_THRESHOLD_FLOOR)
