@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 
@@ -128,8 +129,13 @@ class Detector(_ArcMarks):
                 if y > band[1] or y + bh < band[0]:
                     continue
             found = self._blob(frame, contour, area)
-            if not found and cfg.split_colours:
-                found = self._split_hues(frame, contour, area, min_area)
+            if not found:
+                # Read again per hue, and cut by saturation (a mark on a floor of its own hue
+                # inside a blob whose other colours the hue split found); duplicates go below.
+                if cfg.split_colours:
+                    found = self._split_hues(frame, contour, area, min_area)
+                if cfg.split_saturation_gap > 0:
+                    found = found + self._split_saturation(frame, contour, area, min_area)
             marks.extend(found)
         if cfg.bridge_px > 0 and len(contours) >= 2:
             # Any blobs may be pieces of a mark cut by a thin occluder (a piece can give a
@@ -259,6 +265,48 @@ class Detector(_ArcMarks):
                 # a region of another palette colour, a pole across it).
                 found.extend(self._joined(frame, own, (bx, by), len(parts), min_area))
             marks.extend(found)
+        return marks
+
+    def _split_saturation(self, frame: _Frame, contour: Contour, area: float,
+                          min_area: float) -> list[Mark]:
+        """A blob that gave no mark, cut once at the saturation that best separates it (Otsu):
+        a mark touching a paler region of its own hue (a green disc on a green carpet, a red
+        one before a terracotta board) is the more saturated part, cut out by its outline."""
+        cfg = self.config
+        bx, by, bw, bh = cv2.boundingRect(contour)
+        if area < math.pi * (cfg.min_partial_radius / frame.sx) ** 2 or \
+                (min(bw, bh) + 1) * frame.sx < 2.0 * cfg.min_partial_radius:
+            return []
+        region = np.zeros((bh, bw), np.uint8)
+        cv2.drawContours(region, [contour], -1, 255, cv2.FILLED, offset=(-bx, -by))
+        cv2.bitwise_and(region, frame.mask[by:by + bh, bx:bx + bw], dst=region)
+        sat = np.ascontiguousarray(frame.hsv[by:by + bh, bx:bx + bw, 1])
+        inside = sat[region > 0]
+        if inside.size < 2 * min_area:
+            return []
+        level, _ = cv2.threshold(inside.reshape(1, -1), 0, 255,
+                                 cv2.THRESH_BINARY | cv2.THRESH_OTSU)
+        high, low = inside[inside > level], inside[inside <= level]
+        if high.size < min_area or low.size == 0 or \
+                float(high.mean()) - float(low.mean()) < cfg.split_saturation_gap:
+            return []
+        own: Mat = cv2.morphologyEx(
+            np.where((sat > level) & (region > 0), 255, 0).astype(np.uint8), cv2.MORPH_OPEN,
+            self._kernel3)
+        parts, _ = cv2.findContours(own, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
+                                    offset=(bx, by))
+        # The parts are measured against a mask without the paler region, which is their
+        # background now, not part of them.
+        mask = frame.mask.copy()
+        window = mask[by:by + bh, bx:bx + bw]
+        window[(region > 0) & (own == 0)] = 0
+        cut = dataclasses.replace(frame, mask=mask)
+        marks: list[Mark] = []
+        for part in parts:
+            part_area = cv2.contourArea(part)
+            if len(part) < 6 or part_area < min_area or part_area > 0.97 * area:
+                continue
+            marks.extend(self._blob(cut, part, part_area))
         return marks
 
     def _joined(self, frame: _Frame, own: Mat, origin: tuple[int, int], pieces: int,

@@ -109,6 +109,11 @@ class DetectorConfig:
     #: units), each over at least half a ``min_partial_radius`` disc, is also read per colour:
     #: touching marks. Closer hues are one mark's shading.
     split_hue_gap: float = 8.0
+    #: A blob that gives no mark, even per hue, is split once by saturation (Otsu's threshold
+    #: inside it) when the two parts' mean saturations differ by at least this much: a mark
+    #: standing on a floor or in front of a board of its own hue but a paler saturation.
+    #: 0: never.
+    split_saturation_gap: float = 60.0
     #: Blobs whose area exceeds this share of their minimum bounding rectangle are rectangles.
     max_extent: float = 0.9
     #: Blobs smaller than 20 px (equivalent radius) filling less than this share of their
