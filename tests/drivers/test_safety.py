@@ -509,6 +509,25 @@ def test_sensor_timeout_faults_tick_by_tick() -> None:
     assert layer.command(left=200, right=200) is False
 
 
+def test_a_frame_from_before_connect_does_not_start_the_sensor_watchdog() -> None:
+    """The watchdog counts from the later of connect and the last frame: a frame that came while
+    disconnected (a stream left running by a previous program) is older than the link."""
+    layer, sink, clock = make(start=1.0, sensor_timeout_s=0.2)
+    layer.on_sensors(CLEAR)  # disconnected: recorded, no state change
+    assert layer.state is S.DISCONNECTED
+    clock.set(5.0)
+    layer.connect()
+    clock.set(5.15)  # 4.15 s after that frame, 0.15 s after connect
+    layer.poll()
+    assert layer.state is S.READY
+    assert layer.command(left=100, right=100) is True
+    clock.set(5.21)
+    layer.poll()
+    assert layer.state is S.FAULT
+    assert layer.fault_reason == "no sensor frame since connect for 0.210 s (limit 0.2 s)"
+    assert sink.calls[-2:] == [(100, 100), (0, 0)]  # driven, then stopped by the watchdog
+
+
 def test_sensor_timeout_counts_from_connect_when_no_frame_ever_came() -> None:
     layer, sink, clock = make(start=3.0)
     layer.connect()
