@@ -287,7 +287,9 @@ class Detector(_ArcMarks):
         level, _ = cv2.threshold(inside.reshape(1, -1), 0, 255,
                                  cv2.THRESH_BINARY | cv2.THRESH_OTSU)
         high, low = inside[inside > level], inside[inside <= level]
-        if high.size < min_area or low.size == 0 or \
+        # The paler region must be a good part of the blob (a floor, a board), not a mark's
+        # own shading or rim.
+        if high.size < min_area or low.size < 0.25 * inside.size or \
                 float(high.mean()) - float(low.mean()) < cfg.split_saturation_gap:
             return []
         own: Mat = cv2.morphologyEx(
