@@ -39,7 +39,7 @@ import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
 from types import FrameType
 from typing import Any
@@ -100,15 +100,15 @@ def _run(job: Job, max_time_s: float | None) -> Any:
 
 
 @contextmanager
-def _interruptible() -> Iterator[None]:
-    """SIGINT and SIGTERM raise :class:`EvaluationInterrupted` (main thread only)."""
-
-    def handler(signum: int, frame: FrameType | None) -> None:
-        raise EvaluationInterrupted(signal.Signals(signum).name)
-
+def _signals_handled(handler: Any, signals: tuple[signal.Signals, ...] = (signal.SIGINT,
+                                                                          signal.SIGTERM)
+                     ) -> Iterator[None]:
+    """Route ``signals`` to ``handler`` (a function or ``signal.SIG_IGN``) for a while, then
+    restore the previous handlers (main thread only: elsewhere the caller's thread handles
+    signals and this does nothing)."""
     try:
-        old = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
-    except ValueError:  # not the main thread: the caller's thread handles signals
+        old = {s: signal.signal(s, handler) for s in signals}
+    except ValueError:  # not the main thread
         yield
         return
     try:
@@ -118,21 +118,20 @@ def _interruptible() -> Iterator[None]:
             signal.signal(s, h)
 
 
-@contextmanager
+def _raise_interrupted(signum: int, frame: FrameType | None) -> None:
+    raise EvaluationInterrupted(signal.Signals(signum).name)
+
+
+def _interruptible() -> AbstractContextManager[None]:
+    """SIGINT and SIGTERM raise :class:`EvaluationInterrupted` (main thread only)."""
+    return _signals_handled(_raise_interrupted)
+
+
 def _signals_ignored(signals: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
-                     ) -> Iterator[None]:
+                     ) -> AbstractContextManager[None]:
     """Ignore ``signals`` for a while, e.g. so that a second Ctrl-C (or SIGTERM) cannot
     interrupt the clean-up (main thread only)."""
-    try:
-        old = {s: signal.signal(s, signal.SIG_IGN) for s in signals}
-    except ValueError:
-        yield
-        return
-    try:
-        yield
-    finally:
-        for s, h in old.items():
-            signal.signal(s, h)
+    return _signals_handled(signal.SIG_IGN, signals)
 
 
 # ----------------------------------------------------------------------------- serial
