@@ -82,6 +82,7 @@ def run(args: argparse.Namespace) -> int:
     from marknav.missions.checks import checked_mission
     from marknav.missions.overrides import parse_overrides
     from marknav.outputs import printable
+    from marknav.runs.report import reached
     from marknav.runs.run import RunRequest, default_run_dir, execute, summary
 
     if args.max_time is not None and not args.max_time > 0:
@@ -141,11 +142,13 @@ def run(args: argparse.Namespace) -> int:
         raise
     report = result.report
     print(summary(report))
+    got_to = reached(report.waypoints)
     for i, wp in enumerate(report.waypoints, start=1):
         truth = ""
         if wp.truth is not None and wp.mark is not None:
             side = f"passed on its {wp.passed_on}" if wp.passed_on else "not passed"
-            ok = "ok" if wp.truth == "passed" else wp.truth.replace("_", " ").upper()
+            ok = ("ok" if wp.truth == "passed" else "not reached" if i > got_to
+                  else wp.truth.replace("_", " ").upper())
             closest = (f", closest {wp.min_clearance_mm:.0f} mm"
                        if wp.min_clearance_mm is not None else "")
             truth = (f"; ground truth (mark {wp.mark['index']} at {wp.mark['x_mm']:g}, "

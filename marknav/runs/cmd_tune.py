@@ -73,9 +73,13 @@ def run(args: argparse.Namespace) -> int:
                       jobs=args.jobs, dask=args.dask, max_time_s=args.max_time,
                       storage=args.storage, study_name=args.study, on_trial=on_trial)
     except KeyboardInterrupt:
+        from marknav.cli import EXIT_INTERRUPTED
+
+        # This is the whole message: returning (not re-raising) keeps the CLI's generic
+        # "interrupted" line from repeating it.
         print("marknav tune: interrupted; the completed trials are stored — run the same "
               "command again to resume", file=sys.stderr)
-        raise
+        return EXIT_INTERRUPTED
     plot = Path(args.plot) if args.plot else None
     if plot is None and result.storage.startswith("sqlite:///"):
         plot = Path(result.storage.removeprefix("sqlite:///")).parent / "trials.png"

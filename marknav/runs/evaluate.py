@@ -40,7 +40,7 @@ import numpy as np
 from marknav.errors import InputError
 from marknav.figures import save_figure
 from marknav.runs.evaluate_backends import run_jobs
-from marknav.runs.report import SUCCESS, RunReport
+from marknav.runs.report import SUCCESS, RunReport, reached
 from marknav.sim.accuracy import DEFAULT_XS_MM, DEFAULT_YS_MM
 
 __all__ = [
@@ -197,17 +197,8 @@ class SeedResult:
         return ("the tree completed the route, but the ground truth says: "
                 + ("; ".join(denied) or "no waypoints"))
 
-    def _reached(self) -> int:
-        """Waypoints the run got to: up to the last one the tree declared passed or the truth
-        found passed in some way (later ones were never reached, not skipped)."""
-        last = 0
-        for i, w in enumerate(self.waypoints, start=1):
-            if w.outcome == "passed" or (w.truth is not None and w.truth != "skipped"):
-                last = i
-        return last
-
     def _count(self, verdict: str) -> int:
-        return sum(1 for w in self.waypoints[:self._reached()] if w.truth == verdict)
+        return sum(1 for w in self.waypoints[:reached(self.waypoints)] if w.truth == verdict)
 
     @property
     def wrong_side(self) -> int:
@@ -428,9 +419,9 @@ def _incident(result: SeedResult, target_mm: float) -> list[str]:
     problems = []
     if result.collisions:
         problems.append(f"{result.collisions} collision{'s' if result.collisions != 1 else ''}")
-    reached = result._reached()
+    got_to = reached(result.waypoints)
     for i, w in enumerate(result.waypoints, start=1):
-        if (i <= reached and w.truth is not None and not w.confirmed) or w.unverified:
+        if (i <= got_to and w.truth is not None and not w.confirmed) or w.unverified:
             problems.append(f"waypoint {i} {w.describe()}")
         if (w.outcome == "passed" and w.min_clearance_mm is not None
                 and w.min_clearance_mm < target_mm):

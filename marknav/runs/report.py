@@ -18,9 +18,10 @@ import contextlib
 import json
 import logging
 import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, TextIO
+from typing import Any, Protocol, TextIO
 
 import numpy as np
 
@@ -44,6 +45,25 @@ class WaypointResult:
     mark: dict[str, Any] | None = None
     truth: str | None = None
     truth_detail: str = ""
+
+
+class _Judged(Protocol):
+    @property
+    def outcome(self) -> str: ...
+
+    @property
+    def truth(self) -> str | None: ...
+
+
+def reached(waypoints: Sequence[_Judged]) -> int:
+    """How many waypoints the run got to: up to the last one the tree declared passed or the
+    ground truth found passed in some way. Later ones were never reached — not skipped, which
+    means driving beyond a course mark without passing it."""
+    last = 0
+    for i, w in enumerate(waypoints, start=1):
+        if w.outcome == "passed" or (w.truth is not None and w.truth != "skipped"):
+            last = i
+    return last
 
 
 @dataclass

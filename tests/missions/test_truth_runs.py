@@ -75,6 +75,19 @@ def test_a_really_skipped_mark_is_reported_skipped(
     assert not result.success and result.skipped == 1
 
 
+def test_marks_after_the_run_ended_are_not_reached_rather_than_skipped(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A run cut short by its time limit after the first mark: the later course marks were never
+    driven past, so the summary says "not reached", as evaluate counts them, not SKIPPED."""
+    code, report = run(tmp_path, "--max-time", "12")
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if "ground truth (mark" in ln]
+    assert report["outcome"] != "success" and code == 1
+    assert [w["truth"] for w in report["waypoints"]] == ["passed"] + ["skipped"] * 4
+    assert len(lines) == 5 and "(ok)" in lines[0]
+    assert all("(not reached)" in ln and "SKIPPED" not in ln for ln in lines[1:]), lines
+
+
 def wp(outcome: str, truth: str | None, passed_on: str | None = "left") -> WaypointTruth:
     return WaypointTruth("red", "left", outcome, passed_on, 300.0, truth, 0)
 

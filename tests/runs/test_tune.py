@@ -65,6 +65,7 @@ def test_tune_interrupt_then_resume(tiny: Path, tmp_path: Path) -> None:
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, seen + err
     assert "run the same command again to resume" in err and "Traceback" not in err
+    assert err.count("interrupted") == 1, err  # one message, not the CLI's generic one too
     folder = tmp_path / "runs" / "tune-tiny"
     study = _study(folder)
     complete = [t for t in study.trials if t.state == optuna.trial.TrialState.COMPLETE]
