@@ -15,6 +15,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from marknav.behaviours.pause import Pause, Timeout
 from marknav.clock import ManualClock
 from marknav.errors import InputError, InputErrors
+from marknav.missions import builtin_nodes
 from marknav.missions import registry as registry_module
 from marknav.missions.registry import (
     BuildContext,
@@ -429,7 +430,7 @@ def test_builtin_types() -> None:
     assert {"Success", "Failure", "Running", "Pause", "TickCounter"} <= {
         n for n, k in kinds.items() if k == "leaf"}
     assert isinstance(reg.validate_params("Retry", {"num_failures": 2}),
-                      registry_module.RetryParams)
+                      builtin_nodes.RetryParams)
     with pytest.raises(ValueError, match=r"params\.num_failures: Field required"):
         reg.validate_params("Retry", {})
 
