@@ -30,10 +30,10 @@ import yaml
 
 from marknav.cli import main
 from marknav.clock import MonotonicClock
-from marknav.drivers import cmd_serve_robot, oi
-from marknav.drivers.cmd_serve_robot import Rfc2217Bridge
+from marknav.drivers import oi, rfc2217_bridge
 from marknav.drivers.driver import CreateDriver
 from marknav.drivers.packets import OIMode
+from marknav.drivers.rfc2217_bridge import Rfc2217Bridge
 from marknav.drivers.transport import open_port
 from marknav.errors import InputError
 from marknav.sim.create import SimulatedCreate, WheelSpeeds
@@ -190,7 +190,7 @@ def test_15_random_bytes_cannot_take_over_an_oi_start_can(bridge: Rfc2217Bridge,
                                                           robot: PtyServer,
                                                           monkeypatch: pytest.MonkeyPatch
                                                           ) -> None:
-    monkeypatch.setattr(cmd_serve_robot, "TAKEOVER_WAIT_S", 0.5)
+    monkeypatch.setattr(rfc2217_bridge, "TAKEOVER_WAIT_S", 0.5)
     bridge.idle_stop_s = None  # only the takeover policy may stop the wheels here
     sim = robot.sim
     with connect(bridge) as first:

@@ -23,9 +23,9 @@ import serial
 from marknav import cli
 from marknav.clock import MonotonicClock
 from marknav.drivers import oi
-from marknav.drivers.cmd_serve_robot import OIFramer, Rfc2217Bridge
 from marknav.drivers.driver import CreateDriver
 from marknav.drivers.oi import Model, OIMode, Opcode
+from marknav.drivers.rfc2217_bridge import OIFramer, Rfc2217Bridge
 from marknav.drivers.transport import SerialPort, open_port
 from marknav.errors import InputError
 from marknav.planning.kinematics import WheelSpeeds
@@ -169,7 +169,7 @@ def test_a_half_sent_command_is_completed_before_the_stop(rig: Rig) -> None:
 def test_a_silent_client_gets_the_wheels_stopped_but_stays_connected(
         caplog: pytest.LogCaptureFixture) -> None:
     rig = Rig(idle_stop_s=0.3)
-    caplog.set_level(logging.INFO, logger="marknav.drivers.cmd_serve_robot")
+    caplog.set_level(logging.INFO, logger="marknav.drivers.rfc2217_bridge")
     try:
         sim = rig.sim
         client = serial.serial_for_url(rig.bridge.url, baudrate=115200, timeout=0.05)
