@@ -137,6 +137,9 @@ class DetectorConfig:
     max_continued: float = 0.15
     #: Marks scoring lower than this are dropped.
     min_score: float = 0.05
+    #: Drop glows: round blobs whose core is much brighter than their body (galaxies, lamps;
+    #: :mod:`.glow`). A painted mark is flat.
+    reject_glows: bool = True
 
     @classmethod
     def for_camera(cls, *, focal_px: float, mark_radius_mm: float, max_range_mm: float,
