@@ -18,13 +18,15 @@ def _centre_in(a: Mark, b: Mark) -> bool:
 
 def _suppress_duplicates(marks: list[Mark]) -> list[Mark]:
     """Drop a mark whose centre lies inside a better-scoring mark of similar size, and a mark
-    that holds the centres of two smaller marks (an outline fitted across touching marks).
+    that holds the centres of two smaller marks apart from each other (an outline fitted
+    across touching marks; not two readings of one piece).
     Of two marks one of whose centres lies inside the other, only the better-scoring one
     stands: a visible mark's centre cannot be behind another mark's face, so one of the two is
     an outline fitted across a mark and something touching it (clutter of the same colour)."""
     def inside(small: Mark, big: Mark) -> bool:
         return small.radius < 0.8 * big.radius and \
             math.hypot(small.x - big.x, small.y - big.y) < big.radius
+
     def apart(a: Mark, b: Mark) -> bool:
         # Two marks, not two readings of one (the same piece found twice, or the halves of
         # a mark cut by a pole, whose fits overlap).
