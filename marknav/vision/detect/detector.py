@@ -145,9 +145,9 @@ class Detector(_ArcMarks):
         if band is not None:
             lo, hi = (band[0] + 0.5) * scale - 0.5, (band[1] + 0.5) * scale - 0.5
             marks = [m for m in marks if lo <= m.y <= hi]
+        marks = _suppress_duplicates(marks)
         if cfg.reject_glows:
             marks = [m for m in marks if not is_glow(image, m)]
-        marks = _suppress_duplicates(marks)
         marks.sort(key=lambda m: (-m.radius, m.x, m.y))
         return marks
 
