@@ -174,10 +174,11 @@ class _ColourStage(_DetectorBase):
         less saturated part of the frame (saturation up to 25 above its 40th percentile, within
         60..160, so a strong cast that lifts grey to S ≈ 100 still counts as grey while marks
         at S ≈ 255 do not), neither black nor clipped (unless nearly all greys are clipped, as in
-        an overexposed frame: then the clipped ones count). A second pass keeps the pixels that are
-        grey (``S < 40``) after the first gains. Coloured marks and clutter therefore cannot
-        pull the gains, however large they are in the frame. With fewer than 5 % grey pixels
-        there is nothing to balance against: gains 1. Gains are clamped to
+        an overexposed frame: then the clipped near-whites count, S ≤ 90; a bright orange
+        surface clipped in red only keeps its own hue, not the light's). A second pass keeps the
+        pixels that are grey (``S < 40``) after the first gains. Coloured marks and clutter
+        therefore cannot pull the gains, however large they are in the frame. With fewer than
+        5 % grey pixels there is nothing to balance against: gains 1. Gains are clamped to
         ``config.gain_limits``.
         """
         h, w = image.shape[:2]
