@@ -37,6 +37,9 @@ _FINE = 4
 #: Mark-minus-background colour difference (grey component removed) below which a window has
 #: no mark to measure (BGR units).
 _MIN_CONTRAST = 12.0
+#: Saturation up to which a clipped pixel counts as a near-white in an overexposed frame (a cool
+#: cast clipped to (255, 250, 200) is S ≈ 55; an orange surface's clipped highlights S 100-160).
+_CLIPPED_S_MAX = 90
 _HUE_ANGLES = np.arange(HUE_MAX) * (2.0 * math.pi / HUE_MAX)
 _HUE_SIN = np.sin(_HUE_ANGLES)
 _HUE_COS = np.cos(_HUE_ANGLES)
@@ -171,10 +174,11 @@ class _ColourStage(_DetectorBase):
         less saturated part of the frame (saturation up to 25 above its 40th percentile, within
         60..160, so a strong cast that lifts grey to S ≈ 100 still counts as grey while marks
         at S ≈ 255 do not), neither black nor clipped (unless nearly all greys are clipped, as in
-        an overexposed frame: then the clipped ones count). A second pass keeps the pixels that are
-        grey (``S < 40``) after the first gains. Coloured marks and clutter therefore cannot
-        pull the gains, however large they are in the frame. With fewer than 5 % grey pixels
-        there is nothing to balance against: gains 1. Gains are clamped to
+        an overexposed frame: then the clipped near-whites count, S ≤ 90; a bright orange
+        surface clipped in red only keeps its own hue, not the light's). A second pass keeps the
+        pixels that are grey (``S < 40``) after the first gains. Coloured marks and clutter
+        therefore cannot pull the gains, however large they are in the frame. With fewer than
+        5 % grey pixels there is nothing to balance against: gains 1. Gains are clamped to
         ``config.gain_limits``.
         """
         h, w = image.shape[:2]
@@ -197,7 +201,9 @@ class _ColourStage(_DetectorBase):
             if attempt == 0 and cv2.countNonZero(greyish) < 0.05 * greyish.size:
                 # An overexposed scene: its greys are clipped. Clipping flattens a cast but keeps
                 # its direction, so the clipped near-whites still say which way to correct.
-                greyish = cv2.inRange(hsv, (0, 0, 16), (255, s_max, 255))
+                # Only near-whites: a bright surface clipped in one channel (an orange
+                # photograph's highlights) keeps its own hue, not the light's.
+                greyish = cv2.inRange(hsv, (0, 0, 16), (255, min(s_max, _CLIPPED_S_MAX), 255))
             if cv2.countNonZero(greyish) < 0.05 * greyish.size:
                 break
             mean = cv2.mean(tiny, mask=greyish)

@@ -32,6 +32,7 @@ from marknav.vision.detect.geometry import (
     _from_rotated_rect,
     _longest_edge,
 )
+from marknav.vision.detect.glow import is_glow
 from marknav.vision.detect.model import DetectorConfig, Mark
 from marknav.vision.detect.suppress import _suppress_duplicates
 from marknav.vision.palette import DEFAULT_PALETTE, HUE_MAX, Palette
@@ -145,6 +146,8 @@ class Detector(_ArcMarks):
             lo, hi = (band[0] + 0.5) * scale - 0.5, (band[1] + 0.5) * scale - 0.5
             marks = [m for m in marks if lo <= m.y <= hi]
         marks = _suppress_duplicates(marks)
+        if cfg.reject_glows:
+            marks = [m for m in marks if not is_glow(image, m)]
         marks.sort(key=lambda m: (-m.radius, m.x, m.y))
         return marks
 

@@ -125,6 +125,11 @@ class DetectorConfig:
     #: of outline (0.25-0.55 for clean discs of any size; a square gives ≈ 0.05 × its side, a
     #: disc with a fifth of its outline hidden ≈ 0.02 × its radius). Larger: the arc path.
     max_outline_error: float = 0.65
+    #: The same for whole marks measured in the search image (``fine_radius`` and more), in its
+    #: pixels: a strong shading gradient moves a large mark's α = 0.5 rim there by up to one of
+    #: them (0.70 on a dark red mark beside a near-colour board); clutter this large that fails
+    #: the limit lies above 0.85 on the project's corpus.
+    max_search_outline_error: float = 0.75
     #: Share of the visible outline (inside the image) that must be seen as the mark's edge
     #: (0.1 more for marks smaller than 2.5 × ``min_partial_radius``).
     min_support: float = 0.4
@@ -137,6 +142,9 @@ class DetectorConfig:
     max_continued: float = 0.15
     #: Marks scoring lower than this are dropped.
     min_score: float = 0.05
+    #: Drop glows: round blobs whose core is much brighter than their body (galaxies, lamps;
+    #: :mod:`.glow`). A painted mark is flat.
+    reject_glows: bool = True
 
     @classmethod
     def for_camera(cls, *, focal_px: float, mark_radius_mm: float, max_range_mm: float,

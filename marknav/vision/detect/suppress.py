@@ -18,14 +18,24 @@ def _centre_in(a: Mark, b: Mark) -> bool:
 
 def _suppress_duplicates(marks: list[Mark]) -> list[Mark]:
     """Drop a mark whose centre lies inside a better-scoring mark of similar size, and a mark
-    that holds the centres of two smaller marks (an outline fitted across touching marks).
+    that holds the centres of two smaller marks apart from each other (an outline fitted
+    across touching marks; not two readings of one piece).
     Of two marks one of whose centres lies inside the other, only the better-scoring one
     stands: a visible mark's centre cannot be behind another mark's face, so one of the two is
     an outline fitted across a mark and something touching it (clutter of the same colour)."""
     def inside(small: Mark, big: Mark) -> bool:
         return small.radius < 0.8 * big.radius and \
             math.hypot(small.x - big.x, small.y - big.y) < big.radius
-    marks = [m for m in marks if sum(inside(o, m) for o in marks if o is not m) < 2]
+
+    def apart(a: Mark, b: Mark) -> bool:
+        # Two marks, not two readings of one (the same piece found twice, or the halves of
+        # a mark cut by a pole, whose fits overlap).
+        return math.hypot(a.x - b.x, a.y - b.y) >= 0.5 * (a.radius + b.radius)
+
+    def spans_two(big: Mark) -> bool:
+        held = [o for o in marks if o is not big and inside(o, big)]
+        return any(apart(a, b) for i, a in enumerate(held) for b in held[i + 1:])
+    marks = [m for m in marks if not spans_two(m)]
     kept: list[Mark] = []
     for mark in sorted(marks, key=lambda m: -m.score):
         duplicate = any(

@@ -104,7 +104,9 @@ class _WholeMarks(_ColourStage):
         balanced), and the purity says how squarely that hue lies in the colour's range.
         """
         cfg = self.config
+        limit = cfg.max_outline_error
         if exclude is None and frame.sx > 1 and coarse.major >= cfg.fine_radius:
+            limit = cfg.max_search_outline_error
             sx, sy = frame.sx, frame.sy
             local = _Ellipse((coarse.cx + 0.5) / sx - 0.5, (coarse.cy + 0.5) / sy - 0.5,
                              coarse.a / sx, coarse.b / sy, coarse.theta)
@@ -124,7 +126,7 @@ class _WholeMarks(_ColourStage):
             gb, gg, gr = self.last_gains
             balanced = (b * gb, g * gg, r * gr)
         error = measured.error
-        if error > cfg.max_outline_error:
+        if error > limit:
             log.debug("whole mark at (%.1f, %.1f) r=%.1f: outline error %.2f px",
                       fitted.cx, fitted.cy, fitted.major, error)
             return None
@@ -145,7 +147,7 @@ class _WholeMarks(_ColourStage):
             if not self._uniform_floors and (sat < spec.sat_min or val < spec.val_min):
                 return None
             purity = 1.0 - 0.5 * spec.distance(hue) / max(cfg.hue_margin, 1e-9)
-        quality = max(0.0, 1.0 - 0.5 * error / cfg.max_outline_error)
+        quality = max(0.0, 1.0 - 0.5 * error / limit)
         return self._mark(fitted, colour, purity * quality)
 
     def _measure_in(self, image: Mat, coarse: _Ellipse,
