@@ -110,6 +110,7 @@ class SimEnvironment:
         self.truth = GroundTruth()
         self._in_contact = False
         self._closed = False
+        self._event_dicts: list[dict[str, Any]] = []
         self.driver.connect()
         self._step(STREAM_PERIOD_S)  # the first sensor frame
         self.truth.record(self.clock.now(), self.create.pose)
@@ -128,7 +129,11 @@ class SimEnvironment:
             self.truth.record(self.clock.now(), self.create.pose)
 
     def safety_events(self) -> list[dict[str, Any]]:
-        return [e.to_dict() for e in self.driver.safety_events]
+        # The layer only appends: convert the new events (the run loop asks every cycle).
+        events, done = self.driver.safety_events, self._event_dicts
+        if len(events) > len(done):
+            done.extend(e.to_dict() for e in events[len(done):])
+        return list(done)
 
     def finish(self, report: RunReport) -> None:
         report.collisions = len(self.truth.collisions)
