@@ -210,23 +210,35 @@ class _MarkGeometry:
         with np.errstate(divide="ignore", invalid="ignore"):
             us = cx + f * xs / zs
             vs = cy + f * ys / zs
-        for row, j in enumerate(keep):
-            z = zs[row]
-            if z.min() <= config.near_mm:
-                pts = _clip_near(np.stack([xs[row], ys[row], z], axis=1), config.near_mm)
+        # Whole rims (in front of the near plane): boxes and the visibility test at once.
+        whole = zs.min(axis=1) > config.near_mm
+        u_lo, u_hi = us.min(axis=1), us.max(axis=1)
+        v_lo, v_hi = vs.min(axis=1), vs.max(axis=1)
+        shown = ((u_hi >= -0.5) & (v_hi >= -0.5) & (u_lo <= config.width - 0.5)
+                 & (v_lo <= config.height - 0.5))
+        for row, j in enumerate(keep.tolist()):
+            if not whole[row]:
+                pts = _clip_near(np.stack([xs[row], ys[row], zs[row]], axis=1), config.near_mm)
                 if len(pts) < 3:
                     continue
                 x, y, z = pts[:, 0], pts[:, 1], pts[:, 2]
                 poly = np.stack([cx + f * x / z, cy + f * y / z], axis=1)
-            else:
+                bbox = None
+            elif shown[row]:
                 poly = np.stack([us[row], vs[row]], axis=1)
+                bbox = (float(u_lo[row]), float(v_lo[row]), float(u_hi[row]), float(v_hi[row]))
+            else:
+                continue
             zj = float(zc[j])
             xj = float(dcx[j] * s - dcy[j] * c)
             u = cx + f * xj / zj if zj > config.near_mm else math.nan
             v = cy if zj > config.near_mm else math.nan
-            pm = ProjectedMark(index=int(j), depth_mm=zj, u=u, v=v, polygon=poly)
-            if pm.visible(config):
-                out.append(pm)
+            pm = ProjectedMark(index=j, depth_mm=zj, u=u, v=v, polygon=poly)
+            if bbox is not None:
+                pm.__dict__["bbox"] = bbox  # the cached_property's value, already known
+            elif not pm.visible(config):
+                continue
+            out.append(pm)
         out.sort(key=lambda p: -p.depth_mm)  # painter's order: far to near
         return out
 
