@@ -514,7 +514,9 @@ def decode_id_data_pairs(model: Model, payload: bytes) -> dict[int, Any]:
             out[spec.id] = spec.decode(raw)
         ids.append(pid)
         pos += 1 + size
-    if ids and len(_FRAME_PLANS) < 256:
+    if ids:
+        if len(_FRAME_PLANS) >= 256:  # garbage decoded by chance must not grow it for ever
+            _FRAME_PLANS.clear()
         _FRAME_PLANS[(model, n, ids[0])] = _frame_plan(model, tuple(ids))
     return out
 
@@ -540,7 +542,7 @@ def _getter(slots: list[int]) -> Callable[[tuple[Any, ...]], tuple[Any, ...]]:
     return operator.itemgetter(*slots)
 
 
-@functools.cache
+@functools.lru_cache(maxsize=256)
 def _frame_plan(model: Model, ids: tuple[int, ...]) -> _FramePlan:
     fmt = [">"]
     id_slots: list[int] = []

@@ -669,7 +669,7 @@ def _raw_getters() -> dict[int, Callable[[SimulatedCreate], int]]:
 _RAW = _raw_getters()
 
 
-@functools.cache
+@functools.lru_cache(maxsize=64)
 def _stream_plan(
     model: Model, ids: tuple[int, ...]
 ) -> tuple[struct.Struct, tuple[int, ...],

@@ -57,7 +57,9 @@ def test_loop_bench_runs_the_simulator_to_the_time_cap() -> None:
     parts = out["breakdown_ms_per_cycle"]
     assert list(parts) == ["detector", "render", "tick_other", "simulation", "other", "total"]
     assert all(parts[k] > 0 for k in ("detector", "render", "tick_other", "simulation"))
-    assert parts["total"] == pytest.approx(out["wall_time_s"] * 1e3 / out["cycles"], rel=0.02)
+    # (the report's wall time is rounded to 10 ms: half of that spread over the cycles)
+    assert parts["total"] == pytest.approx(out["wall_time_s"] * 1e3 / out["cycles"],
+                                           abs=5.0 / out["cycles"] + 1e-3)
     assert sum(parts[k] for k in ("detector", "render", "tick_other", "simulation", "other")) \
         == pytest.approx(parts["total"], abs=0.01)
     assert parts["other"] >= 0 and parts["detector"] + parts["render"] < parts["total"]
