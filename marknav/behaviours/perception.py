@@ -36,7 +36,7 @@ import logging
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, TypeGuard
 
 from py_trees.common import Status
 
@@ -222,6 +222,7 @@ class Perception(PerceptionBase):
         self.last_frame: Frame | None = None
         self.last_detections: tuple[Mark, ...] = ()
         self._calibrator: WheelRatioCalibrator | None = None
+        self._calibratable: tuple[object, bool] | None = None  # (robot, its isinstance)
         #: Wheel-ratio corrections applied so far (newest last).
         self.wheel_calibrations: list[WheelRatioStep] = []
         self._intrinsics: Intrinsics | None = None
@@ -288,7 +289,7 @@ class Perception(PerceptionBase):
             found = [undistort_mark(m, intr) for m in found]
         robot = self.robot
         calibrated = (robot if self._calibrator is not None
-                      and isinstance(robot, WheelCalibratable) else None)
+                      and self._wheel_calibratable(robot) else None)
         if calibrated is not None:
             pose, sensitivity = calibrated.odometry_snapshot()
         else:
@@ -303,6 +304,14 @@ class Perception(PerceptionBase):
         info = keys.FrameInfo(index=frame.index, t=t, width=width, height=height,
                               marks=len(marks), range_sigma=sigma)
         return Observation(frame=info, marks=marks, pose=pose)
+
+    def _wheel_calibratable(self, robot: object) -> TypeGuard[WheelCalibratable]:
+        """``isinstance(robot, WheelCalibratable)``, asked once per robot (a protocol check
+        looks up each member: tens of µs, every frame)."""
+        known = self._calibratable
+        if known is None or known[0] is not robot:
+            known = self._calibratable = (robot, isinstance(robot, WheelCalibratable))
+        return known[1]
 
     def _calibrate(self, robot: WheelCalibratable, pose: Pose,
                    sensitivity: tuple[float, float, float],

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import operator
 import struct
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
@@ -52,6 +53,7 @@ __all__ = [
     "group_table",
     "is_packet_id",
     "member_ids",
+    "packet_layout",
     "packet_size",
     "packet_table",
     "state_updates",
@@ -268,8 +270,21 @@ class PacketSpec:
         return max(lo, min(hi, int(raw))).to_bytes(self.size, "big", signed=self.signed)
 
 
+class _To:
+    """The ``fields`` of a packet that sets one :class:`SensorState` attribute (its name is
+    visible, so :func:`state_updates` sets it without building a dict)."""
+
+    __slots__ = ("name",)
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    def __call__(self, value: Any) -> dict[str, Any]:
+        return {self.name: value}
+
+
 def _to(name: str) -> Callable[[Any], dict[str, Any]]:
-    return lambda value: {name: value}
+    return _To(name)
 
 
 def _bool(raw: int) -> bool:
@@ -439,8 +454,8 @@ def packet_size(model: Model, packet_id: int) -> int:
 
 
 @functools.cache
-def _layout(model: Model, packet_id: int) -> tuple[struct.Struct, tuple[PacketSpec, ...],
-                                                  tuple[tuple[int, int], ...]]:
+def packet_layout(model: Model, packet_id: int) -> tuple[struct.Struct, tuple[PacketSpec, ...],
+                                                        tuple[tuple[int, int], ...]]:
     """How the data bytes of ``packet_id`` are laid out: a big-endian :class:`struct.Struct`
     (every single packet is 1 or 2 bytes), its member specs and their raw ranges. Computed
     once per (model, id): stream frames are decoded and encoded 67 times a second."""
@@ -458,7 +473,7 @@ def decode_packet(model: Model, packet_id: int, data: bytes) -> dict[int, Any]:
 
     Raises ``ValueError`` for an id the model lacks or a wrong number of bytes.
     """
-    layout, specs, _ranges = _layout(model, packet_id)
+    layout, specs, _ranges = packet_layout(model, packet_id)
     if len(data) != layout.size:
         raise ValueError(f"packet {packet_id} has {layout.size} data bytes on the "
                          f"{model.value}, got {len(data)}")
@@ -470,23 +485,88 @@ def decode_id_data_pairs(model: Model, payload: bytes) -> dict[int, Any]:
     """Decode a stream frame's payload, ``[id][data…][id][data…]…``: single id → value.
 
     Raises ``ValueError`` on an unknown id or when the bytes do not split into whole packets.
+    A payload laid out like the previous one of its length and first id (a stream sends the
+    same ids every 15 ms) is decoded with one ``unpack`` of that layout, after checking that
+    every packet id is where the layout has it — the same result as walking the packets.
     """
-    out: dict[int, Any] = {}
-    pos = 0
     n = len(payload)
+    plan = _FRAME_PLANS.get((model, n, payload[0])) if n else None
+    if plan is not None:
+        values = plan.layout.unpack(payload)
+        if plan.ids_at(values) == plan.ids:
+            out = dict(zip(plan.members, plan.member_values(values), strict=True))
+            for index, pid, decode in plan.decoders:
+                out[pid] = decode(values[index])
+            return out
+    out = {}
+    ids: list[int] = []
+    pos = 0
     while pos < n:
         pid = payload[pos]
         if not is_packet_id(model, pid):
             raise ValueError(f"unknown packet id {pid} at payload offset {pos}")
-        layout, specs, _ranges = _layout(model, pid)
+        layout, specs, _ranges = packet_layout(model, pid)
         size = layout.size
         if pos + 1 + size > n:
             raise ValueError(f"packet {pid} needs {size} data bytes, payload has "
                              f"{n - pos - 1} left")
         for spec, raw in zip(specs, layout.unpack_from(payload, pos + 1), strict=True):
             out[spec.id] = spec.decode(raw)
+        ids.append(pid)
         pos += 1 + size
+    if ids:
+        if len(_FRAME_PLANS) >= 256:  # garbage decoded by chance must not grow it for ever
+            _FRAME_PLANS.clear()
+        _FRAME_PLANS[(model, n, ids[0])] = _frame_plan(model, tuple(ids))
     return out
+
+
+@dataclass(frozen=True)
+class _FramePlan:
+    """A payload's layout for :func:`decode_id_data_pairs`: one struct over ``[id][data…]…``,
+    where the ids are (``ids_at``) and what they must be, the member single ids with their
+    raw values (``member_values``), and the members whose decoder is not ``int``."""
+
+    layout: struct.Struct
+    ids: tuple[int, ...]
+    ids_at: Callable[[tuple[Any, ...]], tuple[int, ...]]
+    members: tuple[int, ...]
+    member_values: Callable[[tuple[Any, ...]], tuple[int, ...]]
+    decoders: tuple[tuple[int, int, Callable[[int], Any]], ...]
+
+
+def _getter(slots: list[int]) -> Callable[[tuple[Any, ...]], tuple[Any, ...]]:
+    if len(slots) == 1:
+        (only,) = slots
+        return lambda values: (values[only],)
+    return operator.itemgetter(*slots)
+
+
+@functools.lru_cache(maxsize=256)
+def _frame_plan(model: Model, ids: tuple[int, ...]) -> _FramePlan:
+    fmt = [">"]
+    id_slots: list[int] = []
+    members: list[int] = []
+    member_slots: list[int] = []
+    decoders: list[tuple[int, int, Callable[[int], Any]]] = []
+    slot = 0
+    for pid in ids:
+        layout, specs, _ranges = packet_layout(model, pid)
+        fmt.append("B" + layout.format.lstrip(">"))
+        id_slots.append(slot)
+        slot += 1
+        for spec in specs:
+            members.append(spec.id)
+            member_slots.append(slot)
+            if spec.decode is not int:  # int() of an int is that int: nothing to do
+                decoders.append((slot, spec.id, spec.decode))
+            slot += 1
+    return _FramePlan(struct.Struct("".join(fmt)), ids, _getter(id_slots), tuple(members),
+                      _getter(member_slots), tuple(decoders))
+
+
+#: (model, payload length, first id) → the layout of the last such payload decoded.
+_FRAME_PLANS: dict[tuple[Model, int, int], _FramePlan] = {}
 
 
 def encode_packet(model: Model, packet_id: int, raw_values: Mapping[int, int]) -> bytes:
@@ -495,7 +575,7 @@ def encode_packet(model: Model, packet_id: int, raw_values: Mapping[int, int]) -
     Missing single ids are sent as 0. Values are saturated to each packet's range, as the robot
     caps its distance/angle accumulators.
     """
-    layout, specs, ranges = _layout(model, packet_id)
+    layout, specs, ranges = packet_layout(model, packet_id)
     return layout.pack(*[max(lo, min(hi, int(raw_values.get(spec.id, 0))))
                          for spec, (lo, hi) in zip(specs, ranges, strict=True)])
 
@@ -505,7 +585,11 @@ def state_updates(model: Model, decoded: Mapping[int, Any]) -> dict[str, Any]:
     table = _TABLES[model]
     out: dict[str, Any] = {}
     for pid, value in decoded.items():
-        out.update(table[pid].fields(value))
+        fields = table[pid].fields
+        if type(fields) is _To:
+            out[fields.name] = value
+        else:
+            out.update(fields(value))
     return out
 
 

@@ -12,7 +12,9 @@ Each function returns a JSON-ready dict, the section ``marknav bench`` prints fo
   steering and the Bézier bypass (planning, pure pursuit).
 - :func:`bench_loop` — a simulated mission at ``control.rate_hz`` with full rendering and
   detection (the run loop of :mod:`marknav.runs.runner`): the cycle time (poll + tick, which
-  renders and detects), overruns of the period, and the simulator's speed-up over real time.
+  renders and detects), overruns of the period, the simulator's speed-up over real time, and
+  where the wall time goes (``breakdown_ms_per_cycle``: detector, render, the rest of the
+  tick, simulation = the simulated Create, world and driver byte path, other).
 - :func:`bench_safety` — bump-to-stop latency of the safety layer alone
   (:func:`marknav.drivers.safety_bench.measure_bump_to_stop`), and end to end through the real
   driver: a :class:`~marknav.sim.create.SimulatedCreate` behind ``createsim://`` sends a stream
@@ -23,9 +25,12 @@ Each function returns a JSON-ready dict, the section ``marknav bench`` prints fo
 
 from __future__ import annotations
 
+import contextlib
+import functools
+import importlib
 import logging
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -174,10 +179,13 @@ def bench_loop(*, mission: Mission | None = None, max_time_s: float = 60.0,
     package = logging.getLogger("marknav")
     old = package.level
     package.setLevel(max(old, logging.ERROR))  # bumps in a run are not the benchmark's news
+    spent: dict[str, float] = {}
     try:
-        cpu0 = time.process_time()
-        report = execute(RunRequest(mission=mission, seed=seed, max_time_s=max_time_s)).report
-        cpu_s = time.process_time() - cpu0
+        with _timed_parts(spent):
+            cpu0 = time.process_time()
+            report = execute(RunRequest(mission=mission, seed=seed,
+                                        max_time_s=max_time_s)).report
+            cpu_s = time.process_time() - cpu0
     finally:
         package.setLevel(old)
     return {
@@ -198,7 +206,71 @@ def bench_loop(*, mission: Mission | None = None, max_time_s: float = 60.0,
         "cycle_ms_p99": report.tick_ms["p99"],
         "cycle_ms_max": report.tick_ms["max"],
         "overruns": report.overruns,
+        "breakdown_ms_per_cycle": _breakdown(spent, report.ticks, report.wall_time_s),
     }
+
+
+#: What :func:`bench_loop` times inside a run: (part, module, class, method). The tick contains
+#: the camera's rendering and the detector; poll and advance are the simulated Create, the
+#: world's contacts and the driver's byte path.
+_PARTS = (
+    ("tick", "marknav.runs.runner", "MissionTree", "tick"),
+    ("render", "marknav.sim.camera", "Renderer", "render"),
+    ("detector", "marknav.vision.detector_setup", "CameraDetector", "detect"),
+    ("simulation", "marknav.sim.environment", "SimEnvironment", "poll"),
+    ("simulation", "marknav.sim.environment", "SimEnvironment", "advance"),
+)
+
+
+@contextlib.contextmanager
+def _timed_parts(spent: dict[str, float]) -> Iterator[None]:
+    """While inside, the methods of :data:`_PARTS` add their wall seconds to ``spent[part]``
+    (a wrapper each: ≈ 1 µs per call, five calls per cycle). A method that no longer exists
+    is left out (its part reads None)."""
+    patched: list[tuple[type, str, Any]] = []
+
+    def timed(part: str, method: Callable[..., Any]) -> Callable[..., Any]:
+        @functools.wraps(method)
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            t0 = time.perf_counter()
+            try:
+                return method(*args, **kwargs)
+            finally:
+                spent[part] = spent.get(part, 0.0) + time.perf_counter() - t0
+        return wrapper
+
+    try:
+        for part, module, cls_name, name in _PARTS:
+            cls = getattr(importlib.import_module(module), cls_name, None)
+            method = cls.__dict__.get(name) if cls is not None else None
+            if cls is None or method is None:
+                log.warning("bench loop: %s.%s.%s not found; its part is not timed", module,
+                            cls_name, name)
+                continue
+            patched.append((cls, name, method))
+            setattr(cls, name, timed(part, method))
+        yield
+    finally:
+        for cls, name, method in reversed(patched):
+            setattr(cls, name, method)
+
+
+def _breakdown(spent: dict[str, float], cycles: int, wall_s: float) -> dict[str, float | None]:
+    """ms per cycle: detector, render, the rest of the tick, simulation, and everything else
+    of the run's wall time (the runner's bookkeeping, the tree's setup)."""
+    if cycles < 1:
+        return {}
+
+    def ms(value: float | None) -> float | None:
+        return None if value is None else round(value * 1e3 / cycles, 3)
+
+    tick, render, detector = spent.get("tick"), spent.get("render"), spent.get("detector")
+    simulation = spent.get("simulation")
+    tick_other = (tick - render - detector
+                  if tick is not None and render is not None and detector is not None else None)
+    other = wall_s - tick - simulation if tick is not None and simulation is not None else None
+    return {"detector": ms(detector), "render": ms(render), "tick_other": ms(tick_other),
+            "simulation": ms(simulation), "other": ms(other), "total": ms(wall_s)}
 
 
 # ----------------------------------------------------------------------------------- safety

@@ -143,9 +143,10 @@ class ProjectedMark:
     v: float
     polygon: FloatArray
 
-    @property
+    @functools.cached_property
     def bbox(self) -> tuple[float, float, float, float]:
-        """(u_min, v_min, u_max, v_max) of the rim."""
+        """(u_min, v_min, u_max, v_max) of the rim (computed once: the renderer and the
+        visibility test both ask)."""
         lo = self.polygon.min(axis=0)
         hi = self.polygon.max(axis=0)
         return (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
@@ -194,44 +195,66 @@ class _MarkGeometry:
         dcy = self.centres[:, 1] - oy
         zc = dcx * c + dcy * s
         keep = np.nonzero(zc + self.radii > config.near_mm)[0]
+        if len(keep) == 0:
+            return []
         out: list[ProjectedMark] = []
         f, cx, cy = config.focal_px, config.cx, config.cy
-        for j in keep:
-            dx = self.rims[j, :, 0] - ox
-            dy = self.rims[j, :, 1] - oy
-            z = dx * c + dy * s
-            x = dx * s - dy * c
-            y = -self.rims[j, :, 2]
-            if z.min() <= config.near_mm:
-                pts = _clip_near(np.stack([x, y, z], axis=1), config.near_mm)
+        # Every kept rim at once (the same element-wise arithmetic as one rim at a time); a
+        # rim crossing the near plane is clipped and projected again on its own below.
+        rims = self.rims[keep]
+        dx = rims[:, :, 0] - ox
+        dy = rims[:, :, 1] - oy
+        zs = dx * c + dy * s
+        xs = dx * s - dy * c
+        ys = -rims[:, :, 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            us = cx + f * xs / zs
+            vs = cy + f * ys / zs
+        # Whole rims (in front of the near plane): boxes and the visibility test at once.
+        whole = zs.min(axis=1) > config.near_mm
+        u_lo, u_hi = us.min(axis=1), us.max(axis=1)
+        v_lo, v_hi = vs.min(axis=1), vs.max(axis=1)
+        shown = ((u_hi >= -0.5) & (v_hi >= -0.5) & (u_lo <= config.width - 0.5)
+                 & (v_lo <= config.height - 0.5))
+        for row, j in enumerate(keep.tolist()):
+            if not whole[row]:
+                pts = _clip_near(np.stack([xs[row], ys[row], zs[row]], axis=1), config.near_mm)
                 if len(pts) < 3:
                     continue
                 x, y, z = pts[:, 0], pts[:, 1], pts[:, 2]
-            poly = np.stack([cx + f * x / z, cy + f * y / z], axis=1)
+                poly = np.stack([cx + f * x / z, cy + f * y / z], axis=1)
+                bbox = None
+            elif shown[row]:
+                poly = np.stack([us[row], vs[row]], axis=1)
+                bbox = (float(u_lo[row]), float(v_lo[row]), float(u_hi[row]), float(v_hi[row]))
+            else:
+                continue
             zj = float(zc[j])
             xj = float(dcx[j] * s - dcy[j] * c)
             u = cx + f * xj / zj if zj > config.near_mm else math.nan
             v = cy if zj > config.near_mm else math.nan
-            pm = ProjectedMark(index=int(j), depth_mm=zj, u=u, v=v, polygon=poly)
-            if pm.visible(config):
-                out.append(pm)
+            pm = ProjectedMark(index=j, depth_mm=zj, u=u, v=v, polygon=poly)
+            if bbox is not None:
+                pm.__dict__["bbox"] = bbox  # the cached_property's value, already known
+            elif not pm.visible(config):
+                continue
+            out.append(pm)
         out.sort(key=lambda p: -p.depth_mm)  # painter's order: far to near
         return out
 
 
 def _clip_near(pts: FloatArray, near: float) -> FloatArray:
-    """Sutherland–Hodgman clip of a closed 3-D polygon to z ≥ near."""
-    out: list[FloatArray] = []
-    n = len(pts)
-    for i in range(n):
-        a, b = pts[i], pts[(i + 1) % n]
-        a_in, b_in = a[2] >= near, b[2] >= near
-        if a_in:
-            out.append(a)
-        if a_in != b_in:
-            t = (near - a[2]) / (b[2] - a[2])
-            out.append(a + t * (b - a))
-    return np.array(out) if out else np.empty((0, 3))
+    """Sutherland–Hodgman clip of a closed 3-D polygon to z ≥ near: for each edge a → b, a if
+    it is in front, then the edge's crossing of the plane if it crosses (all edges at once)."""
+    nxt = np.roll(pts, -1, axis=0)
+    a_in = pts[:, 2] >= near
+    cross = a_in != (nxt[:, 2] >= near)
+    a, b = pts[cross], nxt[cross]
+    t = (near - a[:, 2]) / (b[:, 2] - a[:, 2])
+    crossings = a + t[:, None] * (b - a)
+    # Output order: vertex i (slot 2i), then the crossing of edge i (slot 2i + 1).
+    slots = np.concatenate([2 * np.nonzero(a_in)[0], 2 * np.nonzero(cross)[0] + 1])
+    return np.concatenate([pts[a_in], crossings])[np.argsort(slots)]
 
 
 def project_marks(world: World, pose: Pose, config: CameraConfig = CameraConfig()) -> list[
@@ -482,8 +505,33 @@ class Renderer:
             pts = np.round(poly * (1 << _SHIFT)).astype(np.int32)
             cv2.fillPoly(img, [pts], self._colours[pm.index], cv2.LINE_AA, _SHIFT)
 
+    def _blurred_marks(
+        self, c0: int, marks: list[ProjectedMark]
+    ) -> tuple[int, int, int, int, Image]:
+        """With blur: the box (u0, v0, u1, v1) of the canvas the blurred marks can reach and its
+        pixels (marks drawn on the sharp panorama, then blurred)."""
+        h, w = self._canvas.height, self._canvas.width
+        # The pixels the blurred marks can reach: their box plus the kernel (and 1 px of
+        # anti-aliasing); the blur there needs the sharp scene one kernel further out.
+        boxes = [pm.bbox for pm in marks]
+        reach = self._k + 2
+        u0 = max(0, math.floor(min(b[0] for b in boxes)) - reach)
+        v0 = max(0, math.floor(min(b[1] for b in boxes)) - reach)
+        u1 = min(w - 1, math.ceil(max(b[2] for b in boxes)) + reach)
+        v1 = min(h - 1, math.ceil(max(b[3] for b in boxes)) + reach)
+        k = self._k
+        su0, su1 = u0 - k, u1 + k
+        sv0, sv1 = max(0, v0 - k), min(h - 1, v1 + k)
+        roi = self._pan[sv0:sv1 + 1, c0 + su0:c0 + su1 + 1].copy()
+        self._draw(roi, marks, float(su0), float(sv0))
+        cv2.GaussianBlur(roi, self._ksize, self._blur, dst=roi)
+        return u0, v0, u1, v1, roi[v0 - sv0:v1 - sv0 + 1, k:k + u1 - u0 + 1]
+
     def render(self, pose: Pose, rng: np.random.Generator | None = None) -> Image:
         """One BGR frame from ``pose``. ``rng`` picks the noise; ``None`` renders noise-free."""
+        if (self._noise is not None and rng is not None and self._warp is None
+                and not self._poles):
+            return self._render_noisy(pose, rng, self._noise)
         cfg = self._canvas
         h, w = cfg.height, cfg.width
         img = np.empty((h, w, 3), dtype=np.uint8)
@@ -493,21 +541,8 @@ class Renderer:
         if marks and self._k == 0:
             self._draw(img, marks, 0.0, 0.0)
         elif marks:
-            # The pixels the blurred marks can reach: their box plus the kernel (and 1 px of
-            # anti-aliasing); the blur there needs the sharp scene one kernel further out.
-            boxes = np.array([pm.bbox for pm in marks])
-            reach = self._k + 2
-            u0 = max(0, math.floor(boxes[:, 0].min()) - reach)
-            v0 = max(0, math.floor(boxes[:, 1].min()) - reach)
-            u1 = min(w - 1, math.ceil(boxes[:, 2].max()) + reach)
-            v1 = min(h - 1, math.ceil(boxes[:, 3].max()) + reach)
-            k = self._k
-            su0, su1 = u0 - k, u1 + k
-            sv0, sv1 = max(0, v0 - k), min(h - 1, v1 + k)
-            roi = self._pan[sv0:sv1 + 1, c0 + su0:c0 + su1 + 1].copy()
-            self._draw(roi, marks, float(su0), float(sv0))
-            cv2.GaussianBlur(roi, self._ksize, self._blur, dst=roi)
-            img[v0:v1 + 1, u0:u1 + 1] = roi[v0 - sv0:v1 - sv0 + 1, k:k + u1 - u0 + 1]
+            u0, v0, u1, v1, crop = self._blurred_marks(c0, marks)
+            img[v0:v1 + 1, u0:u1 + 1] = crop
         if self._poles:
             draw_poles(img, self._poles, c0 - self._margin, self._wp)
         if self._warp is not None:
@@ -519,6 +554,32 @@ class Renderer:
             ox = int(rng.integers(0, w + 1))
             cv2.add(img, pos[oy:oy + h, ox:ox + w], dst=img)
             cv2.subtract(img, neg[oy:oy + h, ox:ox + w], dst=img)
+        return img
+
+    def _render_noisy(self, pose: Pose, rng: np.random.Generator,
+                      noise: tuple[Image, Image]) -> Image:
+        """:meth:`render` without lens and poles, with noise, in two passes over the frame
+        instead of three: the background is copied by adding the noise's positive part to it
+        (the marks' box likewise), then the negative part is subtracted — per pixel the same
+        saturating operations in the same order, so the same frame."""
+        h, w = self._canvas.height, self._canvas.width
+        pos, neg = noise
+        oy = int(rng.integers(0, h + 1))
+        ox = int(rng.integers(0, w + 1))
+        plus = pos[oy:oy + h, ox:ox + w]
+        img = np.empty((h, w, 3), dtype=np.uint8)
+        c0 = self._column(pose)
+        marks = self._geometry.project(pose, self._canvas)
+        if marks and self._k == 0:
+            np.copyto(img, self._pan_blurred[:, c0:c0 + w])
+            self._draw(img, marks, 0.0, 0.0)
+            cv2.add(img, plus, dst=img)
+        else:
+            cv2.add(self._pan_blurred[:, c0:c0 + w], plus, dst=img)
+            if marks:
+                u0, v0, u1, v1, crop = self._blurred_marks(c0, marks)
+                img[v0:v1 + 1, u0:u1 + 1] = cv2.add(crop, plus[v0:v1 + 1, u0:u1 + 1])
+        cv2.subtract(img, neg[oy:oy + h, ox:ox + w], dst=img)
         return img
 
 

@@ -28,11 +28,13 @@ faster than real time. All public methods are thread-safe.
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import random
+import struct
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from threading import Condition, RLock
 
@@ -48,6 +50,7 @@ from marknav.drivers.packets import (
     encode_packet,
     is_packet_id,
     member_ids,
+    packet_layout,
 )
 from marknav.planning.kinematics import Pose, WheelSpeeds, integrate_pose
 
@@ -418,12 +421,22 @@ class SimulatedCreate:
         """One 15 ms sensor update; returns True if a stream frame was emitted."""
         self._safety_check()
         if self._stream_active and self._stream_ids:
-            payload = b"".join(bytes([pid]) + self._packet_bytes(pid)
-                               for pid in self._stream_ids)
-            self._emit(oi.stream_frame(payload))
+            self._emit(self._stream_frame())
             self.frames_sent += 1
             return True
         return False
+
+    def _stream_frame(self) -> bytes:
+        """The stream frame of the current stream ids, ``[19][n][id][data…]…[checksum]``: the
+        bytes ``oi.stream_frame`` of the packets' ``encode_packet`` gives, packed at once with
+        the stream's precomputed layout (every 15 ms of simulated time)."""
+        layout, template, slots = _stream_plan(self.model, self._stream_ids)
+        args = list(template)
+        for slot, get, lo, hi in slots:
+            value = int(get(self))
+            args[slot] = lo if value < lo else (hi if value > hi else value)
+        body = layout.pack(*args)
+        return body + bytes((-sum(body) & 0xFF,))
 
     def _emit(self, data: bytes) -> None:
         self._out += data
@@ -443,71 +456,8 @@ class SimulatedCreate:
         return report
 
     def _raw(self, pid: int) -> int:
-        c1 = self.model is Model.CREATE1
-        vl, vr = self._cmd_left, self._cmd_right
-        if pid == 7:
-            return self._bumps.to_raw()
-        if pid == 8:
-            return int(self._wall)
-        if 9 <= pid <= 12:
-            return int(self._cliffs[pid - 9])
-        if pid == 13:
-            return int(self._virtual_wall)
-        if pid == 14:
-            return self._overcurrents.to_raw(self.model)
-        if pid == 17:
-            return 255 if c1 else 0
-        if pid == 19:
-            return self._take_accumulator("_dist_acc")
-        if pid == 20:
-            return self._take_accumulator("_angle_acc")
-        if pid == 22:
-            return self.voltage_mv
-        if pid == 23:
-            return self._current_ma()
-        if pid == 24:
-            return self.battery_temp_c
-        if pid == 25:
-            return int(self._charge_mah)
-        if pid == 26:
-            return self.capacity_mah
-        if pid == 27:
-            return 300 if self._wall else 0
-        if 28 <= pid <= 31:
-            return 20 if self._cliffs[pid - 28] else 2400
-        if pid == 32:
-            return 16 if c1 else 0  # Create 1: baud-rate-change pin high (its default)
-        if pid == 35:
-            return int(self._mode)
-        if pid == 36:
-            return self._song_number
-        if pid == 37:
-            return int(self._time < self._song_end)
-        if pid == 38:
-            return len(self._stream_ids)
-        if pid == 39:
-            return self._req_velocity
-        if pid == 40:
-            return self._req_radius
-        if pid == 41:
-            return self._req_right
-        if pid == 42:
-            return self._req_left
-        if pid == 43:
-            return _wrap16(self._enc_left)
-        if pid == 44:
-            return _wrap16(self._enc_right)
-        if pid == 45:
-            return self._light_bumper | (32 if self._wall else 0)
-        if 46 <= pid <= 51:
-            return 1200 if self._light_bumper >> (pid - 46) & 1 else 8
-        if pid == 54:
-            return int(0.4 * abs(vl))
-        if pid == 55:
-            return int(0.4 * abs(vr))
-        if pid == 58:
-            return int(vl + vr > 0 and not self._bumps.bump_left and not self._bumps.bump_right)
-        return 0  # unused bytes, dirt detect, buttons, charging, IR left/right, brushes
+        """The raw integer the robot reports for single packet ``pid`` (see :data:`_RAW`)."""
+        return _RAW.get(pid, _zero)(self)
 
     def _packet_bytes(self, pid: int) -> bytes:
         raw = {m: self._raw(m) for m in member_ids(self.model, pid)}
@@ -667,3 +617,78 @@ def _clamp(value: int, limit: int) -> int:
 
 def _wrap16(counts: float) -> int:
     return (round(counts) + 0x8000) % 0x10000 - 0x8000
+
+
+def _zero(_sim: SimulatedCreate) -> int:
+    return 0  # unused bytes, dirt detect, buttons, charging, IR left/right, brushes
+
+
+def _raw_getters() -> dict[int, Callable[[SimulatedCreate], int]]:
+    """Single packet id → the raw integer the simulated robot reports (ids not here: 0)."""
+    c1: Callable[[SimulatedCreate], bool] = lambda s: s.model is Model.CREATE1  # noqa: E731
+    get: dict[int, Callable[[SimulatedCreate], int]] = {
+        7: lambda s: s._bumps.to_raw(),
+        8: lambda s: int(s._wall),
+        13: lambda s: int(s._virtual_wall),
+        14: lambda s: s._overcurrents.to_raw(s.model),
+        17: lambda s: 255 if c1(s) else 0,
+        19: lambda s: s._take_accumulator("_dist_acc"),
+        20: lambda s: s._take_accumulator("_angle_acc"),
+        22: lambda s: s.voltage_mv,
+        23: lambda s: s._current_ma(),
+        24: lambda s: s.battery_temp_c,
+        25: lambda s: int(s._charge_mah),
+        26: lambda s: s.capacity_mah,
+        27: lambda s: 300 if s._wall else 0,
+        32: lambda s: 16 if c1(s) else 0,  # Create 1: baud-rate-change pin high (its default)
+        35: lambda s: int(s._mode),
+        36: lambda s: s._song_number,
+        37: lambda s: int(s._time < s._song_end),
+        38: lambda s: len(s._stream_ids),
+        39: lambda s: s._req_velocity,
+        40: lambda s: s._req_radius,
+        41: lambda s: s._req_right,
+        42: lambda s: s._req_left,
+        43: lambda s: _wrap16(s._enc_left),
+        44: lambda s: _wrap16(s._enc_right),
+        45: lambda s: s._light_bumper | (32 if s._wall else 0),
+        54: lambda s: int(0.4 * abs(s._cmd_left)),
+        55: lambda s: int(0.4 * abs(s._cmd_right)),
+        58: lambda s: int(s._cmd_left + s._cmd_right > 0 and not s._bumps.bump_left
+                          and not s._bumps.bump_right),
+    }
+    for i in range(4):
+        get[9 + i] = lambda s, i=i: int(s._cliffs[i])  # type: ignore[misc]
+        get[28 + i] = lambda s, i=i: 20 if s._cliffs[i] else 2400  # type: ignore[misc]
+    for i in range(6):
+        get[46 + i] = lambda s, i=i: 1200 if s._light_bumper >> i & 1 else 8  # type: ignore[misc]
+    return get
+
+
+#: How the simulated robot computes each single packet's raw value (its sensor model).
+_RAW = _raw_getters()
+
+
+@functools.lru_cache(maxsize=64)
+def _stream_plan(
+    model: Model, ids: tuple[int, ...]
+) -> tuple[struct.Struct, tuple[int, ...],
+           tuple[tuple[int, Callable[[SimulatedCreate], int], int, int], ...]]:
+    """A stream frame of ``ids`` without its checksum as one big-endian struct, the pack
+    arguments with the constant bytes (header, n, packet ids) filled in, and for every member
+    packet its argument slot, raw-value getter and raw range (values are saturated to it, as
+    :func:`~marknav.drivers.packets.encode_packet` does)."""
+    n = oi.stream_ids_size(model, ids)
+    if n > 255:
+        raise ValueError(f"a stream payload has at most 255 bytes, got {n}")
+    fmt = [">BB"]
+    template: list[int] = [oi.STREAM_HEADER, n]
+    slots: list[tuple[int, Callable[[SimulatedCreate], int], int, int]] = []
+    for pid in ids:
+        layout, specs, ranges = packet_layout(model, pid)
+        fmt.append("B" + layout.format.lstrip(">"))
+        template.append(pid)
+        for spec, (lo, hi) in zip(specs, ranges, strict=True):
+            slots.append((len(template), _RAW.get(spec.id, _zero), lo, hi))
+            template.append(0)
+    return struct.Struct("".join(fmt)), tuple(template), tuple(slots)

@@ -110,6 +110,7 @@ class SimEnvironment:
         self.truth = GroundTruth()
         self._in_contact = False
         self._closed = False
+        self._event_dicts: list[dict[str, Any]] = []
         self.driver.connect()
         self._step(STREAM_PERIOD_S)  # the first sensor frame
         self.truth.record(self.clock.now(), self.create.pose)
@@ -128,7 +129,11 @@ class SimEnvironment:
             self.truth.record(self.clock.now(), self.create.pose)
 
     def safety_events(self) -> list[dict[str, Any]]:
-        return [e.to_dict() for e in self.driver.safety_events]
+        # The layer only appends: convert the new events (the run loop asks every cycle).
+        events, done = self.driver.safety_events, self._event_dicts
+        if len(events) > len(done):
+            done.extend(e.to_dict() for e in events[len(done):])
+        return list(done)
 
     def finish(self, report: RunReport) -> None:
         report.collisions = len(self.truth.collisions)
@@ -148,14 +153,19 @@ class SimEnvironment:
         self.create.step(dt)
         pose = self.create.pose
         r = self.robot_radius_mm
-        found = worldmod.contacts(self.world, pose, robot_radius_mm=r)
-        if any(c.depth_mm > 0.5 for c in found):
-            # Touching is allowed, passing through is not: put the robot back outside.
-            pose = worldmod.push_out(self.world, pose, robot_radius_mm=r)
-            self.create.set_pose(pose)
         # The bumper stays pressed while the robot rests against the obstacle (within its
         # travel), so the safety layer sees the bump until the robot has backed away.
         pressed = worldmod.contacts(self.world, pose, robot_radius_mm=r + BUMPER_TRAVEL_MM)
+        # Anything the robot's own disc touches is also within its bumper's travel, so when
+        # nothing is (most steps) there is nothing to push out of either.
+        if pressed:
+            found = worldmod.contacts(self.world, pose, robot_radius_mm=r)
+            if any(c.depth_mm > 0.5 for c in found):
+                # Touching is allowed, passing through is not: put the robot back outside.
+                pose = worldmod.push_out(self.world, pose, robot_radius_mm=r)
+                self.create.set_pose(pose)
+                pressed = worldmod.contacts(self.world, pose,
+                                            robot_radius_mm=r + BUMPER_TRAVEL_MM)
         if pressed:
             b = worldmod.bumps(pressed)
             self.create.set_bump(b.left, b.right)

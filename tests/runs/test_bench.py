@@ -52,6 +52,25 @@ def test_loop_bench_runs_the_simulator_to_the_time_cap() -> None:
         assert out["overruns"] >= 1
     if out["cycle_ms_p50"] > 50.0 + 1e-3:
         assert out["overruns"] >= (out["cycles"] + 1) // 2
+    # Where the wall time went, ms per cycle: every part was timed (each method exists), the
+    # parts are positive and add up to the run's wall time (rounding: 1 µs each).
+    parts = out["breakdown_ms_per_cycle"]
+    assert list(parts) == ["detector", "render", "tick_other", "simulation", "other", "total"]
+    assert all(parts[k] > 0 for k in ("detector", "render", "tick_other", "simulation"))
+    # (the report's wall time is rounded to 10 ms: half of that spread over the cycles)
+    assert parts["total"] == pytest.approx(out["wall_time_s"] * 1e3 / out["cycles"],
+                                           abs=5.0 / out["cycles"] + 1e-3)
+    assert sum(parts[k] for k in ("detector", "render", "tick_other", "simulation", "other")) \
+        == pytest.approx(parts["total"], abs=0.01)
+    assert parts["other"] >= 0 and parts["detector"] + parts["render"] < parts["total"]
+
+
+def test_loop_bench_times_its_parts_only_while_it_runs() -> None:
+    from marknav.sim.camera import Renderer
+
+    before = Renderer.render
+    bench_loop(mission=make_mission(name="tiny", route=["red"]), max_time_s=0.1, seed=3)
+    assert Renderer.render is before  # the timing wrappers are gone again
 
 
 def test_safety_bench_measures_both_paths() -> None:
