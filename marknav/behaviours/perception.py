@@ -112,7 +112,8 @@ class PerceptionBase(MarknavBehaviour):
         self._last_frame_t: float | None = None  # mission time of the last frame (or first wait)
         self._half_fov: tuple[Mission, float] | None = None
         self.frames = 0
-        self._frame_message = ""
+        self._frame_message: str | None = ""
+        self._frame_text: tuple[Observation, keys.Target | None, keys.SeenMark | None] | None = None
 
     def observe(self) -> Observation | None:  # pragma: no cover - abstract
         raise NotImplementedError
@@ -140,7 +141,7 @@ class PerceptionBase(MarknavBehaviour):
             elif self.frames == 0:
                 self.feedback_message = f"waiting for the first frame ({silent:.2f} s)"
             else:  # between frames (the camera is slower than the tick): nothing is wrong
-                self.feedback_message = f"{self._frame_message} ({silent:.2f} s ago)"
+                self.feedback_message = f"{self.frame_message} ({silent:.2f} s ago)"
             return Status.SUCCESS
         self._last_frame_t = now
         self.frames += 1
@@ -170,12 +171,36 @@ class PerceptionBase(MarknavBehaviour):
             sighting = associate(obs.marks, target, passed, where)
             if sighting is not None:
                 self.write(keys.TARGET, with_sighting(target, sighting))
-        shown = obs.marks[:FEEDBACK_MARKS]  # nearest first (the detector's and the fake's order)
-        seen = ", ".join(f"{m.colour} {m.range_mm / 1000.0:.2f} m" for m in shown) or "no marks"
-        if len(obs.marks) > len(shown):
-            seen += f" (+{len(obs.marks) - len(shown)} more)"
-        focus = f"; target {target.label}: {describe(sighting)}" if target is not None else ""
-        self.feedback_message = self._frame_message = f"frame {obs.frame.index}: {seen}{focus}"
+        # The text is built when something reads it (the live view, a failure's reason), not
+        # every frame: most frames nobody does.
+        self._frame_text = (obs, target, sighting)
+        self._frame_message = None
+        self._feedback_is_frame = True
+
+    @property
+    def feedback_message(self) -> str:
+        """py_trees' feedback: the last frame's text (built on first read), or what was set."""
+        return self.frame_message if self._feedback_is_frame else self._feedback
+
+    @feedback_message.setter
+    def feedback_message(self, text: str) -> None:
+        self._feedback = text
+        self._feedback_is_frame = False
+
+    @property
+    def frame_message(self) -> str:
+        """What the last frame showed: its nearest marks and the target's sighting."""
+        if self._frame_message is None and self._frame_text is not None:
+            obs, target, sighting = self._frame_text
+            shown = obs.marks[:FEEDBACK_MARKS]  # nearest first (the detector's and the fake's)
+            seen = ", ".join(f"{m.colour} {m.range_mm / 1000.0:.2f} m" for m in shown) \
+                or "no marks"
+            if len(obs.marks) > len(shown):
+                seen += f" (+{len(obs.marks) - len(shown)} more)"
+            focus = (f"; target {target.label}: {describe(sighting)}" if target is not None
+                     else "")
+            self._frame_message = f"frame {obs.frame.index}: {seen}{focus}"
+        return self._frame_message or ""
 
     def half_fov_rad(self) -> float | None:
         """Half the camera's horizontal field of view (from the mission), if known."""
