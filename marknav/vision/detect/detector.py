@@ -384,6 +384,20 @@ class Detector(_ArcMarks):
                 return []
         if not self._has_arc(frame, contour, r_est):
             return []
+        # Both readings below look at the same full-resolution window.
+        win = self._window(frame, colours.region, box, pad=4)
+        marks: list[Mark] | None = None
+        if split:
+            # Touching marks of different colours: each colour on its own, the others hiding
+            # it (each colour's part is that colour by construction: purity 1). When that
+            # accounts for every colour present, with two marks at least, the blob is
+            # explained: the one-mark reading below is not needed.
+            present = colours.present
+            marks = self._window_marks(frame, colours.region, box, present,
+                                       purity=dict.fromkeys(present, 1.0), try_whole=True,
+                                       win=win)
+            if len(marks) >= max(2, len(present)):
+                return marks
         single: list[Mark] = []
         if colours.colour is not None:
             # One mark's reading: every palette-coloured pixel of the blob is the mark (its
@@ -391,16 +405,11 @@ class Detector(_ArcMarks):
             # failed as a whole mark.
             single = self._window_marks(frame, colours.region, box, [colours.colour],
                                         purity={colours.colour: colours.purity},
-                                        try_whole=border or not convex, merged=True)
-        if not split:
+                                        try_whole=border or not convex, merged=True, win=win)
+        if marks is None:
             return single
-        # Touching marks of different colours: each colour on its own, the others hiding it.
-        # It stands when it finds more marks, or as many and at least two (one mark whose
-        # shading straddles two palette colours is one mark).
-        # (Each colour's part is that colour by construction: purity 1.)
-        present = colours.present
-        marks = self._window_marks(frame, colours.region, box, present,
-                                   purity=dict.fromkeys(present, 1.0), try_whole=True)
+        # The per-colour reading stands when it finds more marks, or as many and at least two
+        # (one mark whose shading straddles two palette colours is one mark).
         if len(marks) > len(single) or len(marks) == len(single) >= 2:
             return marks
         return single

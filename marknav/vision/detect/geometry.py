@@ -60,12 +60,20 @@ class _Ellipse:
         if self.a == self.b:
             out_c: FloatArray = np.hypot(pts[:, 0] - self.cx, pts[:, 1] - self.cy) - self.a
             return out_c
-        rho = self.rho(pts)
-        dist = np.hypot(pts[:, 0] - self.cx, pts[:, 1] - self.cy)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            res = dist * (1.0 - 1.0 / rho)
-        out: FloatArray = np.nan_to_num(res, nan=-self.minor)
-        return out
+        dx = pts[:, 0] - self.cx
+        dy = pts[:, 1] - self.cy
+        c, s = math.cos(self.theta), math.sin(self.theta)
+        u = (dx * c + dy * s) / self.a
+        v = (-dx * s + dy * c) / self.b
+        rho = np.sqrt(u * u + v * v)
+        dist = np.hypot(dx, dy)
+        centre = rho == 0.0
+        if centre.any():  # the centre itself: no ray (as far inside as the minor axis)
+            out: FloatArray = np.where(centre, -self.minor,
+                                       dist * (1.0 - 1.0 / np.where(centre, 1.0, rho)))
+            return out
+        res: FloatArray = dist * (1.0 - 1.0 / rho)
+        return res
 
     def perimeter(self) -> float:
         a, b = self.a, self.b
@@ -88,13 +96,14 @@ def _fit_circle(pts: FloatArray, iterations: int = 0) -> _Ellipse | None:
     n = len(pts)
     if n < 3:
         return None
-    mean = pts.mean(axis=0)
+    mean = pts.sum(axis=0) / n  # as pts.mean(axis=0), without its dispatch
     u = pts[:, 0] - mean[0]
     v = pts[:, 1] - mean[1]
     uu, vv = u * u, v * v
     suu, svv, suv = float(uu.sum()), float(vv.sum()), float((u * v).sum())
-    rhs_u = 0.5 * float((u * (uu + vv)).sum())
-    rhs_v = 0.5 * float((v * (uu + vv)).sum())
+    ww = uu + vv
+    rhs_u = 0.5 * float((u * ww).sum())
+    rhs_v = 0.5 * float((v * ww).sum())
     det = suu * svv - suv * suv
     if abs(det) < 1e-9 * max(suu * svv, 1e-12):
         return None
@@ -133,7 +142,7 @@ def _fit_ellipse(pts: FloatArray) -> _Ellipse | None:
 
 
 def _rms(values: FloatArray) -> float:
-    return float(np.sqrt(np.mean(values * values))) if len(values) else math.inf
+    return math.sqrt(float((values * values).sum()) / len(values)) if len(values) else math.inf
 
 
 def _runs(keep: npt.NDArray[np.bool_]) -> list[npt.NDArray[np.intp]]:
@@ -161,8 +170,8 @@ def _fit_arc(pts: FloatArray, iterations: int = 0) -> _Ellipse | None:
     if len(pts) < 12:
         return circle
     ang = np.sort(np.arctan2(pts[:, 1] - circle.cy, pts[:, 0] - circle.cx))
-    gaps = np.diff(np.concatenate([ang, ang[:1] + 2 * math.pi]))
-    span = 2 * math.pi - float(gaps.max())
+    gap = max(float((ang[1:] - ang[:-1]).max()), float(ang[0]) + 2 * math.pi - float(ang[-1]))
+    span = 2 * math.pi - gap
     if span < math.radians(200):
         return circle
     ell = _fit_ellipse(pts)

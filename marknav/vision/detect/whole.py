@@ -225,15 +225,26 @@ class _WholeMarks(_ColourStage):
         if float(np.max(np.einsum("ijk,ijk->ij", diff, diff))) < _SECTOR_SPREAD ** 2:
             return
         h, w = roi.shape[:2]
-        yy, xx = np.mgrid[0:h, 0:w]
-        sector = _sector_of(xx - local.cx, yy - local.cy)
+        sector = _sector_of(np.arange(w, dtype=np.float64)[None, :] - local.cx,
+                            np.arange(h, dtype=np.float64)[:, None] - local.cy)
+        # Each sector lies in one quadrant about the centre (sectors 0-1 up-left, 2-3
+        # up-right, 4-5 down-right, 6-7 down-left; a pixel's margin for the rays between):
+        # only that quadrant is transformed.
+        ix, iy = math.floor(local.cx), math.floor(local.cy)
+        left, right = min(w, max(0, ix + 2)), min(w, max(0, ix - 1))
+        top, bottom = min(h, max(0, iy + 2)), min(h, max(0, iy - 1))
+        quadrants = ((0, left, 0, top), (right, w, 0, top), (right, w, bottom, h),
+                     (0, left, bottom, h))
         for k, sector_bgr in zip(np.flatnonzero(known).tolist(), means.tolist(), strict=True):
             transform = self._alpha_transform(mark_bgr, sector_bgr)
             if transform is None:
                 continue
-            part = cv2.threshold(cv2.transform(roi, transform), 127, 255, cv2.THRESH_BINARY)[1]
-            wedge = sector == k
-            binary[wedge] = part[wedge]
+            x0, x1, y0, y1 = quadrants[k // 2]
+            if x1 <= x0 or y1 <= y0:
+                continue
+            part = cv2.threshold(cv2.transform(roi[y0:y1, x0:x1], transform), 127, 255,
+                                 cv2.THRESH_BINARY)[1]
+            np.copyto(binary[y0:y1, x0:x1], part, where=sector[y0:y1, x0:x1] == k)
 
 
 def _quadrants_differ(roi: Mat, local: _Ellipse, back: Mat) -> bool:
