@@ -95,8 +95,8 @@ class _ArcMarks(_WholeMarks):
             xo = np.rint(fit.cx + (fit.major + 1.5) * cos).astype(np.intp)
             yo = np.rint(fit.cy + (fit.major + 1.5) * sin).astype(np.intp)
             r_in = max(0.5, fit.minor - 1.5)
-            xi = np.clip(np.rint(fit.cx + r_in * cos).astype(np.intp), 0, sw - 1)
-            yi = np.clip(np.rint(fit.cy + r_in * sin).astype(np.intp), 0, sh - 1)
+            xi = np.minimum(np.maximum(np.rint(fit.cx + r_in * cos).astype(np.intp), 0), sw - 1)
+            yi = np.minimum(np.maximum(np.rint(fit.cy + r_in * sin).astype(np.intp), 0), sh - 1)
             inside = (xo >= 0) & (xo < sw) & (yo >= 0) & (yo < sh)
             if not inside.any():
                 continue
@@ -168,7 +168,8 @@ class _ArcMarks(_WholeMarks):
             # Pixels of the other palette colours are not this mark; blob pixels of this colour
             # below the mid-level (a highlight) are.
             others = cv2.bitwise_xor(cv2.bitwise_not(background), own)
-            alpha[others > 0] = 0
+            if not merged:  # (merged: no other colours)
+                alpha[others > 0] = 0
             binary = cv2.threshold(alpha, 127, 255, cv2.THRESH_BINARY)[1]
             cv2.bitwise_and(binary, win.blob, dst=binary)
             cv2.bitwise_or(binary, core, dst=binary)

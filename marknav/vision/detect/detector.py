@@ -112,6 +112,8 @@ class Detector(_ArcMarks):
                                    self._kernel if cfg.open_size > 1 else None,
                                    self._buffers, self._horizon_band(h, scale))
         small, hsv, mask = products.small, products.hsv, products.mask
+        if products.boxes is not None and not products.boxes:
+            return []  # no seed anywhere (the gate's rectangles): an empty mask, no blob
         contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
         frame = _Frame(image, w, h, small, hsv, mask, float(scale), float(scale), balance,
                        v_floor)

@@ -235,7 +235,9 @@ def _subpixel_edges(alpha: npt.NDArray[np.float32], fit: _Ellipse,
     denom = p0 - p1
     denom[denom <= 1e-6] = 1e-6
     t = _RAY_T[j] + (p0 - 0.5) / denom * (_RAY_T[j + 1] - _RAY_T[j])
-    out: FloatArray = np.column_stack([pts[:, 0] + nx * t, pts[:, 1] + ny * t])[has]
+    out: FloatArray = np.empty((int(has.sum()), 2), np.float64)
+    out[:, 0] = (pts[:, 0] + nx * t)[has]
+    out[:, 1] = (pts[:, 1] + ny * t)[has]
     return out
 
 

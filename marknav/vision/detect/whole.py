@@ -253,13 +253,18 @@ def _quadrants_differ(roi: Mat, local: _Ellipse, back: Mat) -> bool:
     OpenCV calls, so that the sector split is only paid for where it may matter."""
     h, w = roi.shape[:2]
     cx, cy = min(max(1, round(local.cx)), w - 1), min(max(1, round(local.cy)), h - 1)
+    # The four quadrants' pixel counts and colour sums from two integral images (exact integer
+    # sums; the means as cv2.mean makes them).
+    count = cv2.integral(back, sdepth=cv2.CV_32S)
+    total = cv2.integral(cv2.bitwise_and(roi, roi, mask=back), sdepth=cv2.CV_32S)
     chromas = []
-    for ys, xs in ((slice(0, cy), slice(0, cx)), (slice(0, cy), slice(cx, w)),
-                   (slice(cy, h), slice(0, cx)), (slice(cy, h), slice(cx, w))):
-        part = back[ys, xs]
-        if cv2.countNonZero(part) < 4:
+    for y0, y1, x0, x1 in ((0, cy, 0, cx), (0, cy, cx, w), (cy, h, 0, cx), (cy, h, cx, w)):
+        n = int(count[y1, x1] - count[y0, x1] - count[y1, x0] + count[y0, x0]) // 255
+        if n < 4:
             continue
-        b, g, r, _ = cv2.mean(roi[ys, xs], mask=part)
+        sums = total[y1, x1] - total[y0, x1] - total[y1, x0] + total[y0, x0]
+        inv = 1.0 / n
+        b, g, r = float(sums[0]) * inv, float(sums[1]) * inv, float(sums[2]) * inv
         grey = (b + g + r) / 3.0
         chromas.append((b - grey, g - grey, r - grey))
     for i, a in enumerate(chromas):
