@@ -60,13 +60,12 @@ class _Ellipse:
         if self.a == self.b:
             out_c: FloatArray = np.hypot(pts[:, 0] - self.cx, pts[:, 1] - self.cy) - self.a
             return out_c
-        dx = pts[:, 0] - self.cx
-        dy = pts[:, 1] - self.cy
         c, s = math.cos(self.theta), math.sin(self.theta)
-        u = (dx * c + dy * s) / self.a
-        v = (-dx * s + dy * c) / self.b
-        rho = np.sqrt(u * u + v * v)
-        dist = np.hypot(dx, dy)
+        d = pts - (self.cx, self.cy)
+        # Normalised coordinates (u/a, v/b) of every point through one 2×2 product.
+        q = d @ np.array([[c / self.a, -s / self.b], [s / self.a, c / self.b]])
+        rho = np.sqrt(np.einsum("ij,ij->i", q, q))
+        dist = np.sqrt(np.einsum("ij,ij->i", d, d))
         centre = rho == 0.0
         if centre.any():  # the centre itself: no ray (as far inside as the minor axis)
             out: FloatArray = np.where(centre, -self.minor,
@@ -96,14 +95,14 @@ def _fit_circle(pts: FloatArray, iterations: int = 0) -> _Ellipse | None:
     n = len(pts)
     if n < 3:
         return None
-    mean = pts.sum(axis=0) / n  # as pts.mean(axis=0), without its dispatch
-    u = pts[:, 0] - mean[0]
-    v = pts[:, 1] - mean[1]
-    uu, vv = u * u, v * v
-    suu, svv, suv = float(uu.sum()), float(vv.sum()), float((u * v).sum())
-    ww = uu + vv
-    rhs_u = 0.5 * float((u * ww).sum())
-    rhs_v = 0.5 * float((v * ww).sum())
+    mean = pts.sum(axis=0) / n
+    # The sums the normal equations need, from one Gram matrix of (u, v, u² + v²).
+    cols = np.empty((n, 3), np.float64)
+    np.subtract(pts, mean, out=cols[:, :2])
+    u, v = cols[:, 0], cols[:, 1]
+    cols[:, 2] = u * u + v * v
+    (suu, suv, suw), (_, svv, svw), _ = (cols.T @ cols).tolist()
+    rhs_u, rhs_v = 0.5 * suw, 0.5 * svw
     det = suu * svv - suv * suv
     if abs(det) < 1e-9 * max(suu * svv, 1e-12):
         return None
