@@ -170,8 +170,14 @@ class Detector(_ArcMarks):
         # The opening and the blur widen the gap by about a search pixel on each side.
         k = 2 * math.ceil((cfg.bridge_px / frame.sx + 2.0) / 2.0) + 1
         kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
-        closed = cv2.morphologyEx(frame.mask, cv2.MORPH_CLOSE, kernel)
-        joined, _ = cv2.findContours(closed, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+        # The closing only changes pixels within k of the mask's own: it is computed on the
+        # mask's bounding box grown by k + 1 (the same pixels and outlines as on the whole mask).
+        bx, by, bw, bh = cv2.boundingRect(frame.mask)
+        cx0, cy0 = max(0, bx - k - 1), max(0, by - k - 1)
+        cx1, cy1 = min(sw, bx + bw + k + 1), min(sh, by + bh + k + 1)
+        closed = cv2.morphologyEx(frame.mask[cy0:cy1, cx0:cx1], cv2.MORPH_CLOSE, kernel)
+        joined, _ = cv2.findContours(closed, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
+                                     offset=(cx0, cy0))
         if len(joined) >= len(contours):
             return []  # nothing joined
         firsts = [tuple(float(v) for v in c[0, 0]) for c in contours]
