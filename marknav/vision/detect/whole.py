@@ -23,7 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from marknav.vision.detect.base import _Frame
-from marknav.vision.detect.colour import _ColourStage, _hsv
+from marknav.vision.detect.colour import _MIN_CONTRAST, _ColourStage, _hsv
 from marknav.vision.detect.geometry import (
     Contour,
     Mat,
@@ -50,6 +50,8 @@ _SECTOR_SPREAD = 30.0
 #: The quadrants' chroma spread from which the sectors are looked at (below ``_SECTOR_SPREAD``:
 #: a quadrant averages two sectors).
 _QUADRANT_SPREAD = 15.0
+#: One row per sector (sums per sector through one product).
+_ONE_HOT = np.eye(_SECTORS)
 
 
 @dataclass
@@ -213,9 +215,7 @@ class _WholeMarks(_ColourStage):
         ys, xs = ys[::step], xs[::step]
         sectors = _sector_of(xs - local.cx, ys - local.cy)
         counts = np.bincount(sectors, minlength=_SECTORS).astype(np.float64)
-        pixels = roi[ys, xs].astype(np.float64)
-        sums = np.stack([np.bincount(sectors, weights=pixels[:, c], minlength=_SECTORS)
-                         for c in range(3)], axis=1)
+        sums = _ONE_HOT[sectors].T @ roi[ys, xs].astype(np.float64)  # (sector, channel)
         known = counts >= 3
         if int(known.sum()) < 2:
             return
@@ -224,27 +224,30 @@ class _WholeMarks(_ColourStage):
         diff = chroma[:, None, :] - chroma[None, :, :]
         if float(np.max(np.einsum("ijk,ijk->ij", diff, diff))) < _SECTOR_SPREAD ** 2:
             return
+        # Each known sector's coverage transform (:meth:`_alpha_transform`, all sectors at
+        # once), applied to its own pixels in one pass: 255·α = w·BGR + offset per pixel, on
+        # where it rounds past 127 (as the threshold of cv2.transform's rounded output).
+        d = np.asarray(mark_bgr[:3], np.float64)[None, :] - means
+        d -= d.mean(axis=1, keepdims=True)
+        n2 = np.einsum("ij,ij->i", d, d)
+        contrast = n2 >= _MIN_CONTRAST ** 2
+        if not contrast.any():
+            return
+        wts = d[contrast] * (255.0 / n2[contrast])[:, None]
+        table = np.zeros((_SECTORS, 4), np.float32)
+        rows = np.flatnonzero(known)[contrast]
+        table[rows, :3] = wts
+        table[rows, 3] = -np.einsum("ij,ij->i", wts, means[contrast])
+        valid = np.zeros(_SECTORS, bool)
+        valid[rows] = True
         h, w = roi.shape[:2]
         sector = _sector_of(np.arange(w, dtype=np.float64)[None, :] - local.cx,
                             np.arange(h, dtype=np.float64)[:, None] - local.cy)
-        # Each sector lies in one quadrant about the centre (sectors 0-1 up-left, 2-3
-        # up-right, 4-5 down-right, 6-7 down-left; a pixel's margin for the rays between):
-        # only that quadrant is transformed.
-        ix, iy = math.floor(local.cx), math.floor(local.cy)
-        left, right = min(w, max(0, ix + 2)), min(w, max(0, ix - 1))
-        top, bottom = min(h, max(0, iy + 2)), min(h, max(0, iy - 1))
-        quadrants = ((0, left, 0, top), (right, w, 0, top), (right, w, bottom, h),
-                     (0, left, bottom, h))
-        for k, sector_bgr in zip(np.flatnonzero(known).tolist(), means.tolist(), strict=True):
-            transform = self._alpha_transform(mark_bgr, sector_bgr)
-            if transform is None:
-                continue
-            x0, x1, y0, y1 = quadrants[k // 2]
-            if x1 <= x0 or y1 <= y0:
-                continue
-            part = cv2.threshold(cv2.transform(roi[y0:y1, x0:x1], transform), 127, 255,
-                                 cv2.THRESH_BINARY)[1]
-            np.copyto(binary[y0:y1, x0:x1], part, where=sector[y0:y1, x0:x1] == k)
+        weights = table[sector]
+        pixels_f = roi.astype(np.float32)
+        value = np.einsum("ijk,ijk->ij", pixels_f, weights[:, :, :3]) + weights[:, :, 3]
+        np.copyto(binary, np.where(value >= 127.5, 255, 0).astype(np.uint8),
+                  where=valid[sector])
 
 
 def _quadrants_differ(roi: Mat, local: _Ellipse, back: Mat) -> bool:
