@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import cv2
@@ -40,6 +41,11 @@ from marknav.vision.detect.model import Mark
 from marknav.vision.detect.whole import _WholeMarks
 
 log = logging.getLogger("marknav.vision.detect")
+
+def _mean_abs(values: FloatArray) -> float:
+    """Mean absolute value (as ``np.mean(np.abs(values))``, without its dispatch)."""
+    return float(np.abs(values).sum()) / len(values)
+
 
 _COS_36 = np.cos(np.arange(36) * (2.0 * math.pi / 36))
 _SIN_36 = np.sin(np.arange(36) * (2.0 * math.pi / 36))
@@ -89,8 +95,8 @@ class _ArcMarks(_WholeMarks):
             xo = np.rint(fit.cx + (fit.major + 1.5) * cos).astype(np.intp)
             yo = np.rint(fit.cy + (fit.major + 1.5) * sin).astype(np.intp)
             r_in = max(0.5, fit.minor - 1.5)
-            xi = np.clip(np.rint(fit.cx + r_in * cos).astype(np.intp), 0, sw - 1)
-            yi = np.clip(np.rint(fit.cy + r_in * sin).astype(np.intp), 0, sh - 1)
+            xi = np.minimum(np.maximum(np.rint(fit.cx + r_in * cos).astype(np.intp), 0), sw - 1)
+            yi = np.minimum(np.maximum(np.rint(fit.cy + r_in * sin).astype(np.intp), 0), sh - 1)
             inside = (xo >= 0) & (xo < sw) & (yo >= 0) & (yo < sh)
             if not inside.any():
                 continue
@@ -135,12 +141,14 @@ class _ArcMarks(_WholeMarks):
     def _window_marks(self, frame: _Frame, region: Mat,
                       box: tuple[int, int, int, int], colours: list[int],
                       purity: dict[int, float], *, try_whole: bool,
-                      merged: bool = False) -> list[Mark]:
+                      merged: bool = False, win: _Window | None = None) -> list[Mark]:
         """Marks of the given colours in the blob's full-resolution window (arc path). With
         ``try_whole``, each part of a colour's mask is first tried as a whole mark. ``merged``
-        (one colour given): every palette-coloured pixel counts as that colour."""
+        (one colour given): every palette-coloured pixel counts as that colour. ``win``: the
+        blob's :meth:`_window` (``pad`` 4) when the caller already made it."""
         cfg = self.config
-        win = self._window(frame, region, box, pad=4)
+        if win is None:
+            win = self._window(frame, region, box, pad=4)
         labels = win.labels
         background = cv2.inRange(labels, _NO_COLOUR, _NO_COLOUR)
         if cv2.countNonZero(background) < 8:
@@ -160,7 +168,8 @@ class _ArcMarks(_WholeMarks):
             # Pixels of the other palette colours are not this mark; blob pixels of this colour
             # below the mid-level (a highlight) are.
             others = cv2.bitwise_xor(cv2.bitwise_not(background), own)
-            alpha[others > 0] = 0
+            if not merged:  # (merged: no other colours)
+                alpha[others > 0] = 0
             binary = cv2.threshold(alpha, 127, 255, cv2.THRESH_BINARY)[1]
             cv2.bitwise_and(binary, win.blob, dst=binary)
             cv2.bitwise_or(binary, core, dst=binary)
@@ -221,11 +230,12 @@ class _ArcMarks(_WholeMarks):
         return marks
 
     def _arc_candidates(self, pts: FloatArray, on_border: npt.NDArray[np.bool_],
-                        r_est: float, scale: float = 1.0) -> list[tuple[_Ellipse, FloatArray]]:
+                        r_est: float, scale: float = 1.0) -> Iterator[tuple[_Ellipse, FloatArray]]:
         """Coarse circles/ellipses, each with its contour points, from the convex arcs of a
         contour: points on the image border and in concave stretches (contour spans whose
         hull edge is long, or much shorter than the span) are dropped; the remaining runs are
-        fitted and the runs of one circle merged."""
+        fitted and the runs of one circle merged. Yielded one by one, so that a caller that
+        needs only the first good one (:meth:`_has_arc`) does not pay for the others."""
         n = len(pts)
         keep = ~on_border
         # A digital circle's flattest stretch (at its extremes) is ≈ 2√r long: longer hull
@@ -248,15 +258,14 @@ class _ArcMarks(_WholeMarks):
         min_radius = self.config.min_partial_radius / scale
         min_run = max(6, int(0.1 * math.pi * min_radius))
         runs = sorted((r for r in _runs(keep) if len(r) >= min_run), key=len, reverse=True)
-        candidates: list[tuple[_Ellipse, FloatArray]] = []
         if len(runs) >= 2:
             # All the convex stretches together: one mark cut or hidden in several places
             # (a tilted mark's arcs have different curvatures and do not merge as circles).
             every = pts[np.concatenate(runs)]
             whole = _fit_arc(every)
             if whole is not None and whole.major >= 0.8 * min_radius and \
-                    float(np.mean(np.abs(whole.residuals(every)))) <= max(0.75, 0.02 * whole.major):
-                candidates.append((whole, every))
+                    _mean_abs(whole.residuals(every)) <= max(0.75, 0.02 * whole.major):
+                yield whole, every
         while runs:
             group = pts[runs.pop(0)]
             fit = _fit_arc(group)
@@ -266,13 +275,13 @@ class _ArcMarks(_WholeMarks):
             for other in runs:
                 other_pts = pts[other]
                 tol = max(1.5, 0.06 * fit.major)
-                if float(np.mean(np.abs(fit.residuals(other_pts)))) > tol:
+                if _mean_abs(fit.residuals(other_pts)) > tol:
                     rest.append(other)
                     continue
                 merged = np.concatenate([group, other_pts])
                 refit = _fit_arc(merged)
                 limit = max(1.0, 0.04 * fit.major)
-                if refit is None or float(np.mean(np.abs(refit.residuals(merged)))) > limit:
+                if refit is None or _mean_abs(refit.residuals(merged)) > limit:
                     rest.append(other)
                     continue
                 group, fit = merged, refit
@@ -280,7 +289,7 @@ class _ArcMarks(_WholeMarks):
             # Trim outliers (a chord of an occluder, a joint with a neighbour) and refit.
             for _ in range(2):
                 res = np.abs(fit.residuals(group))
-                inl = res <= max(1.0, 2.5 * 1.25 * float(res.mean()))
+                inl = res <= max(1.0, 2.5 * 1.25 * float(res.sum()) / len(res))
                 if inl.all() or inl.sum() < 6:
                     break
                 group = group[inl]
@@ -289,8 +298,7 @@ class _ArcMarks(_WholeMarks):
                     break
                 fit = refit
             if fit.major >= 0.8 * min_radius:
-                candidates.append((fit, group))
-        return candidates
+                yield fit, group
 
     def _refine_arc(self, frame: _Frame, win: _Window, cand: tuple[_Ellipse, FloatArray],
                     binary: Mat, alpha: npt.NDArray[np.float32], colour: int,

@@ -113,6 +113,8 @@ class Detector(_ArcMarks):
                                    self._kernel if cfg.open_size > 1 else None,
                                    self._buffers, self._horizon_band(h, scale))
         small, hsv, mask = products.small, products.hsv, products.mask
+        if products.boxes is not None and not products.boxes:
+            return []  # no seed anywhere (the gate's rectangles): an empty mask, no blob
         contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
         frame = _Frame(image, w, h, small, hsv, mask, float(scale), float(scale), balance,
                        v_floor)
@@ -171,8 +173,14 @@ class Detector(_ArcMarks):
         # The opening and the blur widen the gap by about a search pixel on each side.
         k = 2 * math.ceil((cfg.bridge_px / frame.sx + 2.0) / 2.0) + 1
         kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
-        closed = cv2.morphologyEx(frame.mask, cv2.MORPH_CLOSE, kernel)
-        joined, _ = cv2.findContours(closed, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+        # The closing only changes pixels within k of the mask's own: it is computed on the
+        # mask's bounding box grown by k + 1 (the same pixels and outlines as on the whole mask).
+        bx, by, bw, bh = cv2.boundingRect(frame.mask)
+        cx0, cy0 = max(0, bx - k - 1), max(0, by - k - 1)
+        cx1, cy1 = min(sw, bx + bw + k + 1), min(sh, by + bh + k + 1)
+        closed = cv2.morphologyEx(frame.mask[cy0:cy1, cx0:cx1], cv2.MORPH_CLOSE, kernel)
+        joined, _ = cv2.findContours(closed, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
+                                     offset=(cx0, cy0))
         if len(joined) >= len(contours):
             return []  # nothing joined
         firsts = [tuple(float(v) for v in c[0, 0]) for c in contours]
@@ -387,6 +395,20 @@ class Detector(_ArcMarks):
                 return []
         if not self._has_arc(frame, contour, r_est):
             return []
+        # Both readings below look at the same full-resolution window.
+        win = self._window(frame, colours.region, box, pad=4)
+        marks: list[Mark] | None = None
+        if split:
+            # Touching marks of different colours: each colour on its own, the others hiding
+            # it (each colour's part is that colour by construction: purity 1). When that
+            # accounts for every colour present, with two marks at least, the blob is
+            # explained: the one-mark reading below is not needed.
+            present = colours.present
+            marks = self._window_marks(frame, colours.region, box, present,
+                                       purity=dict.fromkeys(present, 1.0), try_whole=True,
+                                       win=win)
+            if len(marks) >= max(2, len(present)):
+                return marks
         single: list[Mark] = []
         if colours.colour is not None:
             # One mark's reading: every palette-coloured pixel of the blob is the mark (its
@@ -394,16 +416,11 @@ class Detector(_ArcMarks):
             # failed as a whole mark.
             single = self._window_marks(frame, colours.region, box, [colours.colour],
                                         purity={colours.colour: colours.purity},
-                                        try_whole=border or not convex, merged=True)
-        if not split:
+                                        try_whole=border or not convex, merged=True, win=win)
+        if marks is None:
             return single
-        # Touching marks of different colours: each colour on its own, the others hiding it.
-        # It stands when it finds more marks, or as many and at least two (one mark whose
-        # shading straddles two palette colours is one mark).
-        # (Each colour's part is that colour by construction: purity 1.)
-        present = colours.present
-        marks = self._window_marks(frame, colours.region, box, present,
-                                   purity=dict.fromkeys(present, 1.0), try_whole=True)
+        # The per-colour reading stands when it finds more marks, or as many and at least two
+        # (one mark whose shading straddles two palette colours is one mark).
         if len(marks) > len(single) or len(marks) == len(single) >= 2:
             return marks
         return single

@@ -112,15 +112,32 @@ def search_products(image: U8Array, small_size: tuple[int, int], scale: int,
     buffers.written = boxes
     for x0, y0, x1, y1 in boxes:
         part: Mat = image[y0 * scale:y1 * scale, x0 * scale:x1 * scale]
+        # Written straight into the buffers' rectangles (per-pixel operations: overlapping
+        # rectangles write the same values on their common pixels).
+        b = small[y0:y1, x0:x1]
         if scale > 1:
-            part = cv2.resize(part, (x1 - x0, y1 - y0), interpolation=cv2.INTER_AREA)
-        b, s, m = _classify(part, balance, sat_min, v_floor, gate_lut, kernel)
-        small[y0:y1, x0:x1] = b
-        hsv[y0:y1, x0:x1] = s
+            cv2.resize(part, (x1 - x0, y1 - y0), dst=b, interpolation=cv2.INTER_AREA)
+        else:
+            b[...] = part
+        m = _classify_into(b, hsv[y0:y1, x0:x1], balance, sat_min, v_floor, gate_lut, kernel)
         # Overlapping rectangles agree on their common pixels except near a rectangle's edge,
         # where the opening saw zeros: keep the union.
         cv2.bitwise_or(mask[y0:y1, x0:x1], m, dst=mask[y0:y1, x0:x1])
     return SearchProducts(small, hsv, mask, boxes)
+
+
+def _classify_into(bgr: Mat, hsv: Mat, balance: npt.NDArray[np.float32] | None, sat_min: int,
+                   v_floor: int, gate_lut: Mat | None, kernel: Mat | None) -> Mat:
+    """:func:`_classify` in place: ``bgr`` white-balanced, ``hsv`` filled; the search mask."""
+    if balance is not None:
+        cv2.transform(bgr, balance, dst=bgr)
+    cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV, dst=hsv)
+    mask = cv2.inRange(hsv, (0, sat_min, v_floor), (255, 255, 255))
+    if gate_lut is not None:
+        cv2.bitwise_and(mask, cv2.LUT(hsv[:, :, 0], gate_lut), dst=mask)
+    if kernel is not None:
+        mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, kernel)
+    return mask
 
 
 def _boxes(coarse: Mat, scale: int, sw: int, sh: int,

@@ -60,12 +60,19 @@ class _Ellipse:
         if self.a == self.b:
             out_c: FloatArray = np.hypot(pts[:, 0] - self.cx, pts[:, 1] - self.cy) - self.a
             return out_c
-        rho = self.rho(pts)
-        dist = np.hypot(pts[:, 0] - self.cx, pts[:, 1] - self.cy)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            res = dist * (1.0 - 1.0 / rho)
-        out: FloatArray = np.nan_to_num(res, nan=-self.minor)
-        return out
+        c, s = math.cos(self.theta), math.sin(self.theta)
+        d = pts - (self.cx, self.cy)
+        # Normalised coordinates (u/a, v/b) of every point through one 2×2 product.
+        q = d @ np.array([[c / self.a, -s / self.b], [s / self.a, c / self.b]])
+        rho = np.sqrt(np.einsum("ij,ij->i", q, q))
+        dist = np.sqrt(np.einsum("ij,ij->i", d, d))
+        centre = rho == 0.0
+        if centre.any():  # the centre itself: no ray (as far inside as the minor axis)
+            out: FloatArray = np.where(centre, -self.minor,
+                                       dist * (1.0 - 1.0 / np.where(centre, 1.0, rho)))
+            return out
+        res: FloatArray = dist * (1.0 - 1.0 / rho)
+        return res
 
     def perimeter(self) -> float:
         a, b = self.a, self.b
@@ -88,13 +95,14 @@ def _fit_circle(pts: FloatArray, iterations: int = 0) -> _Ellipse | None:
     n = len(pts)
     if n < 3:
         return None
-    mean = pts.mean(axis=0)
-    u = pts[:, 0] - mean[0]
-    v = pts[:, 1] - mean[1]
-    uu, vv = u * u, v * v
-    suu, svv, suv = float(uu.sum()), float(vv.sum()), float((u * v).sum())
-    rhs_u = 0.5 * float((u * (uu + vv)).sum())
-    rhs_v = 0.5 * float((v * (uu + vv)).sum())
+    mean = pts.sum(axis=0) / n
+    # The sums the normal equations need, from one Gram matrix of (u, v, u² + v²).
+    cols = np.empty((n, 3), np.float64)
+    np.subtract(pts, mean, out=cols[:, :2])
+    u, v = cols[:, 0], cols[:, 1]
+    cols[:, 2] = u * u + v * v
+    (suu, suv, suw), (_, svv, svw), _ = (cols.T @ cols).tolist()
+    rhs_u, rhs_v = 0.5 * suw, 0.5 * svw
     det = suu * svv - suv * suv
     if abs(det) < 1e-9 * max(suu * svv, 1e-12):
         return None
@@ -133,7 +141,7 @@ def _fit_ellipse(pts: FloatArray) -> _Ellipse | None:
 
 
 def _rms(values: FloatArray) -> float:
-    return float(np.sqrt(np.mean(values * values))) if len(values) else math.inf
+    return math.sqrt(float((values * values).sum()) / len(values)) if len(values) else math.inf
 
 
 def _runs(keep: npt.NDArray[np.bool_]) -> list[npt.NDArray[np.intp]]:
@@ -161,8 +169,8 @@ def _fit_arc(pts: FloatArray, iterations: int = 0) -> _Ellipse | None:
     if len(pts) < 12:
         return circle
     ang = np.sort(np.arctan2(pts[:, 1] - circle.cy, pts[:, 0] - circle.cx))
-    gaps = np.diff(np.concatenate([ang, ang[:1] + 2 * math.pi]))
-    span = 2 * math.pi - float(gaps.max())
+    gap = max(float((ang[1:] - ang[:-1]).max()), float(ang[0]) + 2 * math.pi - float(ang[-1]))
+    span = 2 * math.pi - gap
     if span < math.radians(200):
         return circle
     ell = _fit_ellipse(pts)
@@ -226,7 +234,9 @@ def _subpixel_edges(alpha: npt.NDArray[np.float32], fit: _Ellipse,
     denom = p0 - p1
     denom[denom <= 1e-6] = 1e-6
     t = _RAY_T[j] + (p0 - 0.5) / denom * (_RAY_T[j + 1] - _RAY_T[j])
-    out: FloatArray = np.column_stack([pts[:, 0] + nx * t, pts[:, 1] + ny * t])[has]
+    out: FloatArray = np.empty((int(has.sum()), 2), np.float64)
+    out[:, 0] = (pts[:, 0] + nx * t)[has]
+    out[:, 1] = (pts[:, 1] + ny * t)[has]
     return out
 
 

@@ -23,7 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from marknav.vision.detect.base import _Frame
-from marknav.vision.detect.colour import _ColourStage, _hsv
+from marknav.vision.detect.colour import _MIN_CONTRAST, _ColourStage, _hsv
 from marknav.vision.detect.geometry import (
     Contour,
     Mat,
@@ -50,6 +50,8 @@ _SECTOR_SPREAD = 30.0
 #: The quadrants' chroma spread from which the sectors are looked at (below ``_SECTOR_SPREAD``:
 #: a quadrant averages two sectors).
 _QUADRANT_SPREAD = 15.0
+#: One row per sector (sums per sector through one product).
+_ONE_HOT = np.eye(_SECTORS)
 
 
 @dataclass
@@ -215,9 +217,7 @@ class _WholeMarks(_ColourStage):
         ys, xs = ys[::step], xs[::step]
         sectors = _sector_of(xs - local.cx, ys - local.cy)
         counts = np.bincount(sectors, minlength=_SECTORS).astype(np.float64)
-        pixels = roi[ys, xs].astype(np.float64)
-        sums = np.stack([np.bincount(sectors, weights=pixels[:, c], minlength=_SECTORS)
-                         for c in range(3)], axis=1)
+        sums = _ONE_HOT[sectors].T @ roi[ys, xs].astype(np.float64)  # (sector, channel)
         known = counts >= 3
         if int(known.sum()) < 2:
             return
@@ -226,16 +226,30 @@ class _WholeMarks(_ColourStage):
         diff = chroma[:, None, :] - chroma[None, :, :]
         if float(np.max(np.einsum("ijk,ijk->ij", diff, diff))) < _SECTOR_SPREAD ** 2:
             return
+        # Each known sector's coverage transform (:meth:`_alpha_transform`, all sectors at
+        # once), applied to its own pixels in one pass: 255·α = w·BGR + offset per pixel, on
+        # where it rounds past 127 (as the threshold of cv2.transform's rounded output).
+        d = np.asarray(mark_bgr[:3], np.float64)[None, :] - means
+        d -= d.mean(axis=1, keepdims=True)
+        n2 = np.einsum("ij,ij->i", d, d)
+        contrast = n2 >= _MIN_CONTRAST ** 2
+        if not contrast.any():
+            return
+        wts = d[contrast] * (255.0 / n2[contrast])[:, None]
+        table = np.zeros((_SECTORS, 4), np.float32)
+        rows = np.flatnonzero(known)[contrast]
+        table[rows, :3] = wts
+        table[rows, 3] = -np.einsum("ij,ij->i", wts, means[contrast])
+        valid = np.zeros(_SECTORS, bool)
+        valid[rows] = True
         h, w = roi.shape[:2]
-        yy, xx = np.mgrid[0:h, 0:w]
-        sector = _sector_of(xx - local.cx, yy - local.cy)
-        for k, sector_bgr in zip(np.flatnonzero(known).tolist(), means.tolist(), strict=True):
-            transform = self._alpha_transform(mark_bgr, sector_bgr)
-            if transform is None:
-                continue
-            part = cv2.threshold(cv2.transform(roi, transform), 127, 255, cv2.THRESH_BINARY)[1]
-            wedge = sector == k
-            binary[wedge] = part[wedge]
+        sector = _sector_of(np.arange(w, dtype=np.float64)[None, :] - local.cx,
+                            np.arange(h, dtype=np.float64)[:, None] - local.cy)
+        weights = table[sector]
+        pixels_f = roi.astype(np.float32)
+        value = np.einsum("ijk,ijk->ij", pixels_f, weights[:, :, :3]) + weights[:, :, 3]
+        np.copyto(binary, np.where(value >= 127.5, 255, 0).astype(np.uint8),
+                  where=valid[sector])
 
 
 def _quadrants_differ(roi: Mat, local: _Ellipse, back: Mat) -> bool:
@@ -244,13 +258,18 @@ def _quadrants_differ(roi: Mat, local: _Ellipse, back: Mat) -> bool:
     OpenCV calls, so that the sector split is only paid for where it may matter."""
     h, w = roi.shape[:2]
     cx, cy = min(max(1, round(local.cx)), w - 1), min(max(1, round(local.cy)), h - 1)
+    # The four quadrants' pixel counts and colour sums from two integral images (exact integer
+    # sums; the means as cv2.mean makes them).
+    count = cv2.integral(back, sdepth=cv2.CV_32S)
+    total = cv2.integral(cv2.bitwise_and(roi, roi, mask=back), sdepth=cv2.CV_32S)
     chromas = []
-    for ys, xs in ((slice(0, cy), slice(0, cx)), (slice(0, cy), slice(cx, w)),
-                   (slice(cy, h), slice(0, cx)), (slice(cy, h), slice(cx, w))):
-        part = back[ys, xs]
-        if cv2.countNonZero(part) < 4:
+    for y0, y1, x0, x1 in ((0, cy, 0, cx), (0, cy, cx, w), (cy, h, 0, cx), (cy, h, cx, w)):
+        n = int(count[y1, x1] - count[y0, x1] - count[y1, x0] + count[y0, x0]) // 255
+        if n < 4:
             continue
-        b, g, r, _ = cv2.mean(roi[ys, xs], mask=part)
+        sums = total[y1, x1] - total[y0, x1] - total[y1, x0] + total[y0, x0]
+        inv = 1.0 / n
+        b, g, r = float(sums[0]) * inv, float(sums[1]) * inv, float(sums[2]) * inv
         grey = (b + g + r) / 3.0
         chromas.append((b - grey, g - grey, r - grey))
     for i, a in enumerate(chromas):
