@@ -11,7 +11,7 @@ associate`), so every later node of the tick sees one consistent picture.
 While it watches, it calibrates odometry (``robot.calibrate_wheels``, on by default, with a robot
 that supports it): marks stand still, so their drift in the odometry frame measures the wheels'
 ratio (:mod:`marknav.planning.wheel_ratio`); each precise fit rescales the right wheel. The same
-stillness measures the range law (``camera.learn_range``, off by default): the distance driven
+stillness measures the range law (``camera.learn_range``, on by default): the distance driven
 toward a mark is what its radius change must mean (:mod:`marknav.vision.range_learning`); each
 accepted fit replaces the law (and restarts the wheel ratio's window, whose marks were placed
 with the old law). The two learners see different things: a wrong law moves a mark along the

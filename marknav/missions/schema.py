@@ -308,10 +308,12 @@ class Camera(BaseModel):
         description="Detector settings from the camera model: farthest range, horizon prior.",
     )
     learn_range: bool = Field(
-        default=False,
+        default=True,
         description="Learn the range law while driving (odometry measures how far the robot "
-        "drove toward a mark that stands still); the learnt law is in the report. Off by "
-        "default until it is measured on more runs (see README).",
+        "drove toward a mark that stands still), starting from camera.range (or the "
+        "intrinsics' pinhole law); the learnt law is in the report, ready to paste. On by "
+        "default: a law 25 % off then does as well as a calibrated one (README). false keeps "
+        "the law fixed.",
     )
 
     @model_validator(mode="before")

@@ -28,10 +28,11 @@ errors). Guards:
   sideways error); after :meth:`interrupt` (a bump) new sightings are never tied
   to earlier ones, since odometry across a bump is not trusted. The radius and bearing guards
   are about the detector, not the law: a small or off-axis mark's radius is biased (in the
-  simulator, through a webcam lens, a mark of ~20-27 px 20° off the axis reads a median 1-2 px
-  large after undistortion), and a bias of the radius that grows with range is exactly what a
-  steeper law explains — on the long course such sightings pulled a correct law 16 % short at
-  1 m;
+  simulator, through a webcam lens, a mark of ~20-27 px 20° off the axis read a median 1-2 px
+  large after undistortion — mostly the radial axis undistortion over-stretched, since read
+  along the lens's stretch: :func:`marknav.vision.undistort.tangential_radius`), and a bias
+  of the radius that grows with range is exactly what a steeper law explains — on the long
+  course such sightings pulled a correct law 16 % short at 1 m;
 - the worst sightings (normalised residual above ``outlier_sigma`` × the median) are dropped
   once and the rest refitted;
 - a fit whose residual stays above ``max_chi`` (the model does not explain it: two marks of one

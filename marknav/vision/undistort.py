@@ -107,14 +107,32 @@ def ellipse_outline(x: float, y: float, axes: tuple[float, float], angle_deg: fl
     return np.stack([x + ex * c - ey * s, y + ex * s + ey * c], axis=1)
 
 
+def tangential_radius(outline: FloatArray) -> float:
+    """Half the undistorted length of the outline's first diameter (points 0 and n/2 of
+    :func:`ellipse_outline`: the detected major axis, laid along the lens's stretch).
+
+    A round mark's radius is read along that direction only, not as the refitted ellipse's
+    major axis: undistorting magnifies the detected axes unequally — off-axis, a barrel lens
+    squashes a mark radially (1 + 3k1ρ²) about three times as much as tangentially (1 + k1ρ²),
+    so undistorting stretches the radial axis that much more, and with it any error of the
+    detector there. A small mark the detector finds rounder than the lens made it (1 px on
+    20 px is within its noise) then came out with a radial axis several per cent too long,
+    which, as the major axis, was taken for the radius: such marks read near (issue 13's
+    long-course seed 5, blue mark at x = 91 px: 20.6 × 20.1 px detected, 22.5 px undistorted,
+    21.6 px true; along the stretch 21.35 px)."""
+    n = len(outline)
+    return 0.5 * float(np.hypot(*(outline[0] - outline[n // 2])))
+
+
 def undistort_mark(mark: Mark, intrinsics: Intrinsics) -> Mark:
     """The mark as the ideal (undistorted) camera with the same K would have seen it.
 
     An ellipse's outline is undistorted and refitted (centre, semi-axes, angle). A mark the
     detector calls a circle reports no orientation (its two axes may still differ by the lens's
     squash): its major axis is taken along the direction the lens stretches most at its centre
-    (the distortion's Jacobian's first singular vector). The centre is the refitted one. Marks
-    are returned as they are when the lens has no distortion."""
+    (the distortion's Jacobian's first singular vector), and its radius is that axis
+    undistorted (:func:`tangential_radius`). The centre is the refitted one. Marks are returned
+    as they are when the lens has no distortion."""
     if not intrinsics.distorted:
         return mark
     h = 2.0
@@ -136,7 +154,8 @@ def undistort_mark(mark: Mark, intrinsics: Intrinsics) -> Mark:
     # The centre is the refitted one: the lens moves a mark's outline unevenly, so the
     # undistorted image of the detected centre is off by up to a few pixels for big marks.
     if mark.shape == "circle":
-        return replace(mark, x=float(ux), y=float(uy), radius=float(major),
-                       axes=(float(major), float(minor)))
+        radius = tangential_radius(pts)
+        return replace(mark, x=float(ux), y=float(uy), radius=radius,
+                       axes=(radius, min(radius, float(minor))))
     return replace(mark, x=float(ux), y=float(uy), radius=float(major),
                    axes=(float(major), float(minor)), angle_deg=float(angle) % 180.0)

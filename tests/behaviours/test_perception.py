@@ -65,8 +65,9 @@ def test_frame_to_marks_in_robot_and_world_frames(blackboard, manual_clock, miss
     # facing east: forward is +x, the robot's left is +y
     assert m.world_x == pytest.approx(1500.0, abs=20.0)
     assert m.world_y == pytest.approx(100.0, abs=5.0)
+    # range_sigma: the range learner's prior σ (camera.learn_range is on by default)
     assert p.blackboard.get(keys.FRAME) == keys.FrameInfo(index=0, t=0.0, width=640,
-                                                          height=480, marks=1)
+                                                          height=480, marks=1, range_sigma=0.3)
     assert p.blackboard.get(keys.LAST_SEEN) == {"red": m}
     assert p.feedback_message == f"frame 0: red {m.range_mm / 1000:.2f} m"
 
