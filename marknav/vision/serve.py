@@ -87,6 +87,8 @@ _CLIENT_GONE: tuple[type[BaseException], ...] = (
     BrokenPipeError, ConnectionResetError, ConnectionAbortedError, TimeoutError,
 )
 _IDLE_SLEEP_S = 0.01
+#: How long closing the server waits for the streams to end with their closing boundary.
+CLOSE_WAIT_S = 3.0
 #: Send buffer of a stream connection. A client that reads slower than the stream first fills
 #: its own receive buffer, then this one; only then does the server skip frames for it. Small,
 #: so that at most a couple of frames wait here (the kernel doubles it).
@@ -592,9 +594,13 @@ class MjpegServer:
     def close(self) -> None:
         """Stop accepting, end every stream (the streamer is closed too), free the port."""
         self.streamer.close()
-        deadline = time.monotonic() + 1.0
+        # Let each stream write its closing boundary: at once on a quiet machine, but a loaded
+        # one can keep a client's thread from running for a second or more (with 1 s here, the
+        # end-to-end test saw a stream cut without its boundary twice, at load 5-7). Bounded:
+        # a client that does not read is dropped by its socket timeout anyway.
+        deadline = time.monotonic() + CLOSE_WAIT_S
         while self.clients > 0 and time.monotonic() < deadline:
-            time.sleep(0.01)  # let each stream write its closing boundary
+            time.sleep(0.01)
         if self._thread is not None:
             self._httpd.shutdown()
             self._thread.join(timeout=2.0)
