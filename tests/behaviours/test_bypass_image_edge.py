@@ -1,0 +1,64 @@
+"""BezierBypass does not re-plan from a mark cut by the image's side edge (random mission 36:
+the detector's fit of the part in view put the mark 290 mm nearer, the re-plan ended the bypass
+before the robot had passed the mark, and the truth found the last mark never passed)."""
+
+from __future__ import annotations
+
+import py_trees
+import pytest
+
+from marknav.behaviours import keys
+from marknav.behaviours.bypass import EXIT_MARGIN_MM, BezierBypass, cut_by_image_side
+from marknav.behaviours.target import SelectTarget
+from marknav.planning.kinematics import to_robot_frame
+from marknav.testing import RobotMark
+from marknav.testing.perception import pinhole_pixels
+
+RUN_OUT_MM = 165.0 + 100.0 + EXIT_MARGIN_MM
+MARK = (150.0, 800.0)
+
+
+def edge_fooled_camera(rig):
+    """Sees the mark where it is while its whole disc is in the image; once the disc reaches a
+    side edge, 40 % nearer (a partial fit's radius), as long as its centre is in the image."""
+    p = rig.perception
+
+    def script(tick, t):
+        forward, left = to_robot_frame(rig.robot.true_pose, MARK)
+        if forward <= p.mark_radius_mm:
+            return []
+        if p.visible(forward, left):
+            return [RobotMark("red", forward, left)]
+        x_px, _r = pinhole_pixels(forward, left, focal_px=p.focal_px,
+                                  radius_mm=p.mark_radius_mm, image_width=p.image_width)
+        if 0.0 <= x_px < p.image_width:
+            return [RobotMark("red", 0.6 * forward, 0.6 * left)]
+        return []
+
+    return script
+
+
+def test_a_mark_cut_by_the_image_side_does_not_move_the_plan(rig):
+    rig.perception.script = edge_fooled_camera(rig)
+    node = BezierBypass(margin_mm=0.0)
+    pass_ = py_trees.composites.Sequence("Pass", memory=True, children=[
+        SelectTarget(colour="red", waypoint=0), node])
+    root = py_trees.composites.Sequence("Root", memory=False, children=[rig.perception, pass_])
+    assert rig.run(rig.tree(root), max_ticks=300).reached
+    for plan in rig.bb(keys.PLANS):
+        assert plan.plan.mark_xy == (pytest.approx(MARK[0], abs=5.0),
+                                     pytest.approx(MARK[1], abs=5.0))
+    # so the robot really went past the mark: the run-out beyond it, not short of it
+    assert rig.robot.true_pose.y == pytest.approx(MARK[1] + RUN_OUT_MM, abs=20.0)
+    (passed,) = rig.bb(keys.PASSED)
+    assert (passed.mark_x, passed.mark_y) == (pytest.approx(MARK[0], abs=5.0),
+                                              pytest.approx(MARK[1], abs=5.0))
+
+
+@pytest.mark.parametrize(("x_px", "radius_px", "cut"), [
+    (320.0, 40.0, False), (41.0, 40.0, True), (600.0, 36.0, False), (601.0, 37.0, True),
+    (660.0, 80.0, True)])
+def test_cut_by_image_side(x_px, radius_px, cut):
+    seen = keys.SeenMark(colour="red", forward_mm=800.0, left_mm=0.0, world_x=0.0,
+                         world_y=800.0, x_px=x_px, radius_px=radius_px, image_width=640, t=0.0)
+    assert cut_by_image_side(seen) is cut
