@@ -12,8 +12,9 @@ Re-planning: when the camera re-sees the mark with a closer estimate (range at m
 ``replan_ratio`` times the range the current plan was made from) that moves the mark by more than
 ``replan_min_shift_mm``, the bypass is planned again from the current pose, keeping the original
 course. A sighting whose disc reaches the image's side edge is not used
-(:func:`cut_by_image_side`): its radius is the fit of a part. A re-plan that is not feasible
-(:class:`~marknav.planning.bezier.PlanningError`) is skipped and the current plan kept.
+(:func:`~marknav.behaviours.keys.cut_by_image_side`): its radius is the fit of a part. A
+re-plan that is not feasible (:class:`~marknav.planning.bezier.PlanningError`) is skipped and
+the current plan kept.
 
 SUCCESS when the mark is beside or behind the robot along the plan's course (or the tracker
 reached the end of the plan) on the required side: the waypoint is then recorded in
@@ -34,6 +35,7 @@ from py_trees.common import Status
 from marknav.behaviours import keys
 from marknav.behaviours.approach import THRESHOLD_SPEED_FRACTION
 from marknav.behaviours.base import DrivingBehaviour, SetupError, check_positive, pick
+from marknav.behaviours.keys import cut_by_image_side
 from marknav.planning.bezier import BypassPlan, PlanningError, plan_bypass
 from marknav.planning.kinematics import Pose
 from marknav.planning.tracking import PurePursuit
@@ -51,14 +53,6 @@ def lateral_of(pose: Pose, mark_xy: tuple[float, float], course: float) -> float
     """The mark's offset to the left of the robot across ``course`` (mm): (M − P)·n."""
     return (-(mark_xy[0] - pose.x) * math.sin(course)
             + (mark_xy[1] - pose.y) * math.cos(course))
-
-
-def cut_by_image_side(seen: keys.SeenMark) -> bool:
-    """Whether the mark's disc reaches the left or right edge of the image. The detector then
-    fits only the part in view; its radius can be far off (random mission 36: a mark leaving
-    the frame during its bypass, seen 290 mm nearer than 30 whole sightings had it; the re-plan
-    ended the bypass before the robot had passed the mark)."""
-    return seen.x_px - seen.radius_px < 2.0 or seen.x_px + seen.radius_px > seen.image_width - 3.0
 
 
 def behind_of(pose: Pose, mark_xy: tuple[float, float], course: float) -> float:

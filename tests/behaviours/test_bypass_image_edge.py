@@ -1,6 +1,8 @@
-"""BezierBypass does not re-plan from a mark cut by the image's side edge (random mission 36:
-the detector's fit of the part in view put the mark 290 mm nearer, the re-plan ended the bypass
-before the robot had passed the mark, and the truth found the last mark never passed)."""
+"""A mark cut by the image's side edge: its range is the fit of a part, so BezierBypass does not
+re-plan from it (random mission 36: the fit put the mark 290 mm nearer, the re-plan ended the
+bypass before the robot had passed the mark, and the truth found the last mark never passed) and
+the approach does not take it for the bypass threshold (random mission 91: a mark entering the
+frame read 1.07 m for 1.57 m; the bypass planned from it went round the wrong side)."""
 
 from __future__ import annotations
 
@@ -8,6 +10,7 @@ import py_trees
 import pytest
 
 from marknav.behaviours import keys
+from marknav.behaviours.approach import ApproachWhileCentring
 from marknav.behaviours.bypass import EXIT_MARGIN_MM, BezierBypass, cut_by_image_side
 from marknav.behaviours.target import SelectTarget
 from marknav.planning.kinematics import to_robot_frame
@@ -18,13 +21,14 @@ RUN_OUT_MM = 165.0 + 100.0 + EXIT_MARGIN_MM
 MARK = (150.0, 800.0)
 
 
-def edge_fooled_camera(rig):
+def edge_fooled_camera(rig, mark=MARK, nearer=0.6):
     """Sees the mark where it is while its whole disc is in the image; once the disc reaches a
-    side edge, 40 % nearer (a partial fit's radius), as long as its centre is in the image."""
+    side edge, ``nearer`` × its range (a partial fit's radius), as long as its centre is in the
+    image."""
     p = rig.perception
 
     def script(tick, t):
-        forward, left = to_robot_frame(rig.robot.true_pose, MARK)
+        forward, left = to_robot_frame(rig.robot.true_pose, mark)
         if forward <= p.mark_radius_mm:
             return []
         if p.visible(forward, left):
@@ -32,7 +36,7 @@ def edge_fooled_camera(rig):
         x_px, _r = pinhole_pixels(forward, left, focal_px=p.focal_px,
                                   radius_mm=p.mark_radius_mm, image_width=p.image_width)
         if 0.0 <= x_px < p.image_width:
-            return [RobotMark("red", 0.6 * forward, 0.6 * left)]
+            return [RobotMark("red", nearer * forward, nearer * left)]
         return []
 
     return script
@@ -53,6 +57,24 @@ def test_a_mark_cut_by_the_image_side_does_not_move_the_plan(rig):
     (passed,) = rig.bb(keys.PASSED)
     assert (passed.mark_x, passed.mark_y) == (pytest.approx(MARK[0], abs=5.0),
                                               pytest.approx(MARK[1], abs=5.0))
+
+
+def test_a_mark_cut_by_the_image_side_is_not_taken_for_the_bypass_threshold(rig):
+    # 27° right, 1.8 m away: the centre is in the image (x 620 px of 640), the disc is not;
+    # read 0.45 × nearer, it would be inside the 800 mm threshold at once
+    mark = (815.0, 1600.0)
+    rig.perception.script = edge_fooled_camera(rig, mark, nearer=0.45)
+    node = ApproachWhileCentring()
+    root = py_trees.composites.Sequence("Root", memory=False, children=[
+        rig.perception, SelectTarget(colour="red", waypoint=0), node])
+    tree = rig.tree(root)
+    tree.tick()
+    seen = rig.bb(keys.TARGET).sighting
+    assert cut_by_image_side(seen) and seen.forward_mm < 800.0  # the fooled first sighting
+    assert rig.run(tree, max_ticks=300).reached
+    # the threshold was reached on the whole mark: it really is ~800 mm ahead
+    forward, _left = to_robot_frame(rig.robot.true_pose, mark)
+    assert forward == pytest.approx(800.0, abs=60.0)
 
 
 @pytest.mark.parametrize(("x_px", "radius_px", "cut"), [
