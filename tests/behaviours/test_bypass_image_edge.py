@@ -6,6 +6,8 @@ frame read 1.07 m for 1.57 m; the bypass planned from it went round the wrong si
 
 from __future__ import annotations
 
+import dataclasses
+
 import py_trees
 import pytest
 
@@ -84,3 +86,16 @@ def test_cut_by_image_side(x_px, radius_px, cut):
     seen = keys.SeenMark(colour="red", forward_mm=800.0, left_mm=0.0, world_x=0.0,
                          world_y=800.0, x_px=x_px, radius_px=radius_px, image_width=640, t=0.0)
     assert cut_by_image_side(seen) is cut
+
+
+def test_aiming_beside_the_mark_a_cut_sighting_still_ends_the_approach(rig, mission_factory):
+    # approach_aim: side steers the mark off-centre by the clearance's angle; it may then stay
+    # cut until the pass, so the approach must not wait for a whole disc
+    rig = dataclasses.replace(rig, mission=mission_factory(navigation={"approach_aim": "side"}))
+    mark = (815.0, 1600.0)
+    rig.perception.script = edge_fooled_camera(rig, mark, nearer=0.45)
+    root = py_trees.composites.Sequence("Root", memory=False, children=[
+        rig.perception, SelectTarget(colour="red", waypoint=0), ApproachWhileCentring()])
+    tree = rig.tree(root)
+    tree.tick()
+    assert root.status == py_trees.common.Status.SUCCESS
