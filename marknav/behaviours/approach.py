@@ -225,10 +225,7 @@ class ApproachWhileCentring(DrivingBehaviour):
         else:  # between frames: dead-reckon the mark from odometry
             forward, left = to_robot_frame(self.robot.pose(), target.world)
             angle = math.atan2(left, forward)
-        # Not on a disc cut by the image's side while centring it brings it whole: its range
-        # is of a part (random mission 91). Aiming beside the mark may keep it cut.
-        if (forward <= s["bypass_distance_mm"] * unsettled_factor(frame)
-                and not (s["aim_offset_mm"] == 0.0 and keys.cut_by_image_side(seen))):
+        if forward <= s["bypass_distance_mm"] * unsettled_factor(frame):
             self.feedback_message = (f"{target.label} at {forward / 1000.0:.2f} m: "
                                      "bypass threshold reached")
             return Status.SUCCESS

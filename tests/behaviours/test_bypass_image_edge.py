@@ -1,18 +1,13 @@
 """A mark cut by the image's side edge: its range is the fit of a part, so BezierBypass does not
 re-plan from it (random mission 36: the fit put the mark 290 mm nearer, the re-plan ended the
-bypass before the robot had passed the mark, and the truth found the last mark never passed) and
-the approach does not take it for the bypass threshold (random mission 91: a mark entering the
-frame read 1.07 m for 1.57 m; the bypass planned from it went round the wrong side)."""
+bypass before the robot had passed the mark, and the truth found the last mark never passed)."""
 
 from __future__ import annotations
-
-import dataclasses
 
 import py_trees
 import pytest
 
 from marknav.behaviours import keys
-from marknav.behaviours.approach import ApproachWhileCentring
 from marknav.behaviours.bypass import EXIT_MARGIN_MM, BezierBypass, cut_by_image_side
 from marknav.behaviours.target import SelectTarget
 from marknav.planning.kinematics import to_robot_frame
@@ -61,24 +56,6 @@ def test_a_mark_cut_by_the_image_side_does_not_move_the_plan(rig):
                                               pytest.approx(MARK[1], abs=5.0))
 
 
-def test_a_mark_cut_by_the_image_side_is_not_taken_for_the_bypass_threshold(rig):
-    # 27° right, 1.8 m away: the centre is in the image (x 620 px of 640), the disc is not;
-    # read 0.45 × nearer, it would be inside the 800 mm threshold at once
-    mark = (815.0, 1600.0)
-    rig.perception.script = edge_fooled_camera(rig, mark, nearer=0.45)
-    node = ApproachWhileCentring()
-    root = py_trees.composites.Sequence("Root", memory=False, children=[
-        rig.perception, SelectTarget(colour="red", waypoint=0), node])
-    tree = rig.tree(root)
-    tree.tick()
-    seen = rig.bb(keys.TARGET).sighting
-    assert cut_by_image_side(seen) and seen.forward_mm < 800.0  # the fooled first sighting
-    assert rig.run(tree, max_ticks=300).reached
-    # the threshold was reached on the whole mark: it really is ~800 mm ahead
-    forward, _left = to_robot_frame(rig.robot.true_pose, mark)
-    assert forward == pytest.approx(800.0, abs=60.0)
-
-
 @pytest.mark.parametrize(("x_px", "radius_px", "cut"), [
     (320.0, 40.0, False), (41.0, 40.0, True), (600.0, 36.0, False), (601.0, 37.0, True),
     (660.0, 80.0, True)])
@@ -87,15 +64,3 @@ def test_cut_by_image_side(x_px, radius_px, cut):
                          world_y=800.0, x_px=x_px, radius_px=radius_px, image_width=640, t=0.0)
     assert cut_by_image_side(seen) is cut
 
-
-def test_aiming_beside_the_mark_a_cut_sighting_still_ends_the_approach(rig, mission_factory):
-    # approach_aim: side steers the mark off-centre by the clearance's angle; it may then stay
-    # cut until the pass, so the approach must not wait for a whole disc
-    rig = dataclasses.replace(rig, mission=mission_factory(navigation={"approach_aim": "side"}))
-    mark = (815.0, 1600.0)
-    rig.perception.script = edge_fooled_camera(rig, mark, nearer=0.45)
-    root = py_trees.composites.Sequence("Root", memory=False, children=[
-        rig.perception, SelectTarget(colour="red", waypoint=0), ApproachWhileCentring()])
-    tree = rig.tree(root)
-    tree.tick()
-    assert root.status == py_trees.common.Status.SUCCESS
