@@ -1,6 +1,7 @@
 """A mark cut by the image's side edge: its range is the fit of a part, so BezierBypass does not
 re-plan from it (random mission 36: the fit put the mark 290 mm nearer, the re-plan ended the
-bypass before the robot had passed the mark, and the truth found the last mark never passed)."""
+bypass before the robot had passed the mark, and the truth found the last mark never passed). A mark
+whose centre is beyond the edge is not taken for the bypass threshold either."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import py_trees
 import pytest
 
 from marknav.behaviours import keys
+from marknav.behaviours.approach import ApproachWhileCentring
 from marknav.behaviours.bypass import EXIT_MARGIN_MM, BezierBypass, cut_by_image_side
 from marknav.behaviours.target import SelectTarget
 from marknav.planning.kinematics import to_robot_frame
@@ -64,3 +66,49 @@ def test_cut_by_image_side(x_px, radius_px, cut):
                          world_y=800.0, x_px=x_px, radius_px=radius_px, image_width=640, t=0.0)
     assert cut_by_image_side(seen) is cut
 
+
+
+def half_out_fooled_camera(rig, mark, nearer):
+    """The mark where it is while its centre is in the image; ``nearer`` × its range while its
+    centre is beyond the right edge but part of its disc still in view."""
+    p = rig.perception
+
+    def script(tick, t):
+        forward, left = to_robot_frame(rig.robot.true_pose, mark)
+        if forward <= p.mark_radius_mm:
+            return []
+        x_px, r_px = pinhole_pixels(forward, left, focal_px=p.focal_px,
+                                    radius_mm=p.mark_radius_mm, image_width=p.image_width)
+        if 0.0 <= x_px <= p.image_width - 1:
+            return [RobotMark("red", forward, left)]
+        if x_px - r_px < p.image_width - 1:
+            return [RobotMark("red", nearer * forward, nearer * left)]
+        return []
+
+    return script
+
+
+def test_a_mark_mostly_out_of_view_is_not_taken_for_the_bypass_threshold(rig):
+    # 30° right at 1.85 m: its centre is beyond the image's right edge (x 660 px of 640), part
+    # of its disc in view; read 0.45 × nearer (random missions 91 and 119), it would be inside
+    # the 800 mm threshold at once
+    mark = (924.0, 1600.0)
+    rig.perception.script = half_out_fooled_camera(rig, mark, nearer=0.45)
+    root = py_trees.composites.Sequence("Root", memory=False, children=[
+        rig.perception, SelectTarget(colour="red", waypoint=0), ApproachWhileCentring()])
+    tree = rig.tree(root)
+    tree.tick()
+    seen = rig.bb(keys.TARGET).sighting
+    assert keys.centre_outside_image(seen) and seen.forward_mm < 800.0  # the fooled sighting
+    assert rig.run(tree, max_ticks=300).reached
+    # the threshold was reached on the mark in view: it really is ~800 mm ahead
+    forward, _left = to_robot_frame(rig.robot.true_pose, mark)
+    assert forward == pytest.approx(800.0, abs=60.0)
+
+
+@pytest.mark.parametrize(("x_px", "outside"), [(0.0, False), (639.0, False), (-0.5, True),
+                                               (639.5, True), (720.0, True)])
+def test_centre_outside_image(x_px, outside):
+    seen = keys.SeenMark(colour="red", forward_mm=800.0, left_mm=0.0, world_x=0.0,
+                         world_y=800.0, x_px=x_px, radius_px=40.0, image_width=640, t=0.0)
+    assert keys.centre_outside_image(seen) is outside
