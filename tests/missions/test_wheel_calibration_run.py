@@ -6,9 +6,9 @@ tracked in odometry's frame, swing toward the marks. With ``robot.calibrate_whee
 default) the ratio is learnt during the first approach: odometry stays within a few degrees of
 the true heading and every mark is passed at its clearance.
 
-(Until session 3 the raw run also collided with the first mark; that was a bypass re-planned
-from a mark cut by the image's edge, since fixed, not the drift itself. The drift and the
-clearance it costs are what this test is about.)
+(The raw run used to collide with the first mark too; since bypasses are no longer re-planned
+from a mark cut by the image's edge it does not. The drift and the clearance it costs are what
+this test is about.)
 """
 
 from __future__ import annotations
