@@ -11,8 +11,10 @@ paper's open-loop stepping (eqs. 24, 35–39), which drifts.
 Re-planning: when the camera re-sees the mark with a closer estimate (range at most
 ``replan_ratio`` times the range the current plan was made from) that moves the mark by more than
 ``replan_min_shift_mm``, the bypass is planned again from the current pose, keeping the original
-course; a re-plan that is not feasible (:class:`~marknav.planning.bezier.PlanningError`) is
-skipped and the current plan kept.
+course. A sighting whose disc reaches the image's side edge is not used
+(:func:`~marknav.behaviours.keys.cut_by_image_side`): its radius is the fit of a part. A
+re-plan that is not feasible (:class:`~marknav.planning.bezier.PlanningError`) is skipped and
+the current plan kept.
 
 SUCCESS when the mark is beside or behind the robot along the plan's course (or the tracker
 reached the end of the plan) on the required side: the waypoint is then recorded in
@@ -33,11 +35,13 @@ from py_trees.common import Status
 from marknav.behaviours import keys
 from marknav.behaviours.approach import THRESHOLD_SPEED_FRACTION
 from marknav.behaviours.base import DrivingBehaviour, SetupError, check_positive, pick
+from marknav.behaviours.keys import cut_by_image_side
 from marknav.planning.bezier import BypassPlan, PlanningError, plan_bypass
 from marknav.planning.kinematics import Pose
 from marknav.planning.tracking import PurePursuit
 
-__all__ = ["EXIT_MARGIN_MM", "RECOVERY_WIDENING_MM", "BezierBypass", "behind_of", "lateral_of"]
+__all__ = ["EXIT_MARGIN_MM", "RECOVERY_WIDENING_MM", "BezierBypass", "behind_of",
+           "cut_by_image_side", "lateral_of"]
 
 #: Extra run-out beyond robot radius + mark radius before a bypass counts as done (mm).
 EXIT_MARGIN_MM = 60.0
@@ -257,6 +261,8 @@ class BezierBypass(DrivingBehaviour):
         if seen is None or seen.t <= self._last_sighting_t:
             return
         self._last_sighting_t = seen.t
+        if cut_by_image_side(seen):
+            return  # its radius, hence its range, is not the mark's: keep the whole mark's
         if seen.range_mm > self.replan_ratio * self._plan_range:
             return
         shift = math.hypot(seen.world_x - self.plan.mark_xy[0],
