@@ -46,7 +46,9 @@ from marknav.behaviours.target import (
     associate,
     describe,
     excluded_passes,
+    memory_gone,
     remember,
+    reselect,
     with_sighting,
 )
 from marknav.drivers.robot import BUMPED, WheelCalibratable
@@ -157,14 +159,20 @@ class PerceptionBase(MarknavBehaviour):
             last_seen[mark.colour] = mark  # the nearest of each colour is written last
         self.write(keys.LAST_SEEN, last_seen)
         known: tuple[keys.KnownMark, ...] = self.read(keys.KNOWN, ())
+        pose: Pose | None = None
         if obs.marks or known:
             pose = obs.pose if obs.pose is not None else self.robot.pose()
-            self.write(keys.KNOWN, remember(known, obs.marks, pose=pose,
-                                            half_fov_rad=self.half_fov_rad()))
+            known = remember(known, obs.marks, pose=pose, half_fov_rad=self.half_fov_rad())
+            self.write(keys.KNOWN, known)
         target = self.target()
         sighting = None
         if target is not None:
             passed = excluded_passes(self.read(keys.PASSED, ()), self.mission)
+            if pose is not None and memory_gone(target, known):
+                # The remembered mark was looked at where it should be and is not there (a
+                # misplaced sighting): choose again, from what is in view and the memory.
+                target = reselect(target, obs.marks, known, passed, pose)
+                self.write(keys.TARGET, target)
             where = None
             if target.remembered and not target.locked:
                 where = obs.pose if obs.pose is not None else self.robot.pose()

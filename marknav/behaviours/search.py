@@ -18,9 +18,11 @@ full turn (360° of heading change, summed from odometry), whichever comes first
 
 A *remembered* target (chosen from the mark memory, out of view) is recognised only near its
 remembered position and range. When a full turn has not found it there, the memory was wrong
-(an estimate from far away, odometry drift): the remembered mark is forgotten, the target becomes
-an ordinary one — the nearest unpassed mark of its colour in view — and the search starts again,
-once, for another full turn and timeout.
+(an estimate from far away, odometry drift): the remembered mark is forgotten, the target is
+chosen again as at the waypoint's start (another remembered mark of its colour when clearly
+nearer than the nearest unpassed one in view, else that one; an ordinary target if neither), and
+the search starts again, once, toward it, for another full turn and timeout. (Perception does the
+same as soon as the remembered position is in view and nothing is seen there.)
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ from py_trees.common import Status
 
 from marknav.behaviours import keys
 from marknav.behaviours.base import DrivingBehaviour, SetupError, check_positive, pick
-from marknav.behaviours.target import gate_mm
+from marknav.behaviours.target import excluded_passes, gate_mm, reselect
 from marknav.planning.kinematics import Pose, to_robot_frame, wrap_angle
 
 __all__ = ["SearchWhenLost", "search_direction"]
@@ -70,7 +72,7 @@ class SearchWhenLost(DrivingBehaviour):
     Setup: ``robot``, ``clock``, ``mission`` (wheel base and the defaults above).
     """
 
-    READS: ClassVar[tuple[str, ...]] = (keys.TARGET, keys.PASSED, keys.KNOWN)
+    READS: ClassVar[tuple[str, ...]] = (keys.TARGET, keys.PASSED, keys.KNOWN, keys.MARKS)
     WRITES: ClassVar[tuple[str, ...]] = (keys.DRIVER, keys.TARGET, keys.KNOWN)
 
     def __init__(
@@ -151,15 +153,23 @@ class SearchWhenLost(DrivingBehaviour):
         return Status.RUNNING
 
     def _forget(self, target: keys.Target) -> None:
-        """Drop the remembered mark the target was taken from, make the target an ordinary one
-        and start the turn again."""
+        """Drop the remembered mark the target was taken from, choose the target again (another
+        remembered mark of its colour, or the nearest in view; an ordinary one if neither) and
+        start the turn again."""
         self.forgot_memory = True
+        known: tuple[keys.KnownMark, ...] = self.read(keys.KNOWN, ())
         if target.world is not None:
             tx, ty = target.world
-            known: tuple[keys.KnownMark, ...] = self.read(keys.KNOWN, ())
-            self.write(keys.KNOWN, tuple(
-                k for k in known if not (k.colour == target.colour and math.hypot(
-                    k.world_x - tx, k.world_y - ty) <= gate_mm(k.range_mm))))
-        self.write(keys.TARGET, replace(target, remembered=False))
+            known = tuple(k for k in known if not (k.colour == target.colour and math.hypot(
+                k.world_x - tx, k.world_y - ty) <= gate_mm(k.range_mm)))
+            self.write(keys.KNOWN, known)
+        passed = excluded_passes(self.read(keys.PASSED, ()), self.mission)
+        marks: tuple[keys.SeenMark, ...] = self.read(keys.MARKS, ())
+        chosen = reselect(target, marks, known, passed, self.robot.pose())
+        if chosen.world is None:
+            chosen = replace(target, remembered=False)
+        self.write(keys.TARGET, chosen)
+        self.direction = search_direction(chosen, self.robot.pose(),
+                                          passed[-1] if passed else None)
         self._t0 = self.now()
         self.turned_rad = 0.0

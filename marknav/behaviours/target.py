@@ -47,12 +47,15 @@ __all__ = [
     "TargetSeen",
     "WaypointPassed",
     "associate",
+    "choose_target",
     "excluded_passes",
     "gate_mm",
     "is_passed_mark",
+    "memory_gone",
     "nearest_of_colour",
     "remember",
     "remembered_target",
+    "reselect",
     "waypoint_id_for",
 ]
 
@@ -226,6 +229,55 @@ def associate(
     return best
 
 
+def choose_target(
+    base: keys.Target,
+    marks: Sequence[keys.SeenMark],
+    known: Sequence[keys.KnownMark],
+    passed: Sequence[keys.PassedWaypoint],
+    pose: Pose | None,
+) -> tuple[keys.Target, keys.KnownMark | None]:
+    """The waypoint's mark for ``base`` (its waypoint, colour and side): a remembered mark out of
+    view when it is clearly nearer (by :data:`MEMORY_PREFERENCE_MM`) than the nearest unpassed
+    one of its colour in view, else that one; with neither, ``base`` unseen. Also returns the
+    memory it was taken from. ``pose`` ``None``: the memory is not consulted."""
+    seen = nearest_of_colour(marks, base.colour, passed)
+    memory = None
+    if known and pose is not None:
+        memory = remembered_target(known, base.colour, passed, (pose.x, pose.y), marks)
+        if memory is not None and seen is not None and \
+                math.hypot(memory.world_x - pose.x, memory.world_y - pose.y) \
+                > seen.range_mm - MEMORY_PREFERENCE_MM:
+            memory = None  # the one in view is as near: take it
+    if memory is not None:
+        return replace(base, world_x=memory.world_x, world_y=memory.world_y,
+                       remembered=True), memory
+    if seen is not None:
+        return with_sighting(base, seen), None
+    return base, None
+
+
+def memory_gone(target: keys.Target, known: Sequence[keys.KnownMark]) -> bool:
+    """Whether ``target`` was taken from the memory (remembered, not locked) and the memory no
+    longer holds a mark of its colour there: it was looked at where it should be and not seen
+    (:func:`remember` forgot it), so it was a false or misplaced sighting and the target must be
+    chosen again."""
+    if not target.remembered or target.locked or target.world is None:
+        return False
+    tx, ty = target.world
+    return not any(k.colour == target.colour
+                   and math.hypot(k.world_x - tx, k.world_y - ty) <= gate_mm(k.range_mm)
+                   for k in known)
+
+
+def reselect(target: keys.Target, marks: Sequence[keys.SeenMark],
+             known: Sequence[keys.KnownMark], passed: Sequence[keys.PassedWaypoint],
+             pose: Pose) -> keys.Target:
+    """``target`` chosen again (:func:`choose_target`) for its waypoint, colour and side."""
+    base = keys.Target(waypoint=target.waypoint, waypoint_id=target.waypoint_id,
+                       colour=target.colour, side=target.side)
+    return choose_target(base, marks, known, passed, pose)[0]
+
+
 def with_sighting(target: keys.Target, sighting: keys.SeenMark) -> keys.Target:
     """``target`` updated with a new sighting of its mark (and its world position)."""
     # dataclasses.replace, spelt out: this runs every frame the target is seen
@@ -297,33 +349,23 @@ class SelectTarget(MarknavBehaviour):
             return Status.SUCCESS
         marks: tuple[keys.SeenMark, ...] = self.read(keys.MARKS, ())
         passed = excluded_passes(self.read(keys.PASSED, ()), self.mission)
-        seen = nearest_of_colour(marks, self.colour, passed)
-        target = keys.Target(waypoint=self.waypoint, waypoint_id=self.waypoint_id,
-                             colour=self.colour, side=self.side)
+        base = keys.Target(waypoint=self.waypoint, waypoint_id=self.waypoint_id,
+                           colour=self.colour, side=self.side)
         known: tuple[keys.KnownMark, ...] = self.read(keys.KNOWN, ())
         mine = current is not None and current.waypoint_id == self.waypoint_id
-        memory = None
-        if known and not (seen is None and mine):
-            pose = self.robot.pose()
-            memory = remembered_target(known, self.colour, passed, (pose.x, pose.y), marks)
-            if memory is not None and seen is not None and \
-                    math.hypot(memory.world_x - pose.x, memory.world_y - pose.y) \
-                    > seen.range_mm - MEMORY_PREFERENCE_MM:
-                memory = None  # the one in view is as near: take it
-        if memory is not None:
-            target = replace(target, world_x=memory.world_x, world_y=memory.world_y,
-                             remembered=True)
-            self.write(keys.TARGET, target)
-            self.feedback_message = (f"{target.label}, pass on its {self.side}: out of view, "
-                                     f"remembered from t={memory.t:.1f} s")
-            return Status.SUCCESS
-        if seen is not None:
-            target = with_sighting(target, seen)
-        elif mine:
+        seen = nearest_of_colour(marks, self.colour, passed)
+        pose = self.robot.pose() if known and not (seen is None and mine) else None
+        target, memory = choose_target(base, marks, known if pose is not None else (), passed,
+                                       pose)
+        if memory is None and seen is None and mine:
             assert current is not None
             target = current  # out of view now: keep what was seen of it so far
         self.write(keys.TARGET, target)
-        self.feedback_message = f"{target.label}, pass on its {self.side}: {describe(seen)}"
+        if memory is not None:
+            self.feedback_message = (f"{target.label}, pass on its {self.side}: out of view, "
+                                     f"remembered from t={memory.t:.1f} s")
+        else:
+            self.feedback_message = f"{target.label}, pass on its {self.side}: {describe(seen)}"
         return Status.SUCCESS
 
 

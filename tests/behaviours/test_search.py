@@ -137,3 +137,34 @@ def test_a_remembered_target_without_a_mark_anywhere_still_fails(rig):
     assert node.forgot_memory
     assert node.feedback_message.startswith("red #1 not found in a full turn")
     assert log.records[-1].t == pytest.approx(18.0, abs=0.2)  # two full turns
+
+
+def test_a_remembered_target_found_empty_where_it_should_be_is_chosen_again_at_once(rig):
+    """Random mission 271: the target was a remembered ghost (a mark seen at the wrong range,
+    1.2 m instead of 2.9 m). The search turned toward it and saw nothing there, and the memory
+    forgot it, but the target stayed the ghost: the real mark, remembered and then in view 2.3 m
+    away, was never accepted, and after a full turn the search took an off-course mark of the
+    colour that was in view at that moment. The target is chosen again as soon as its memory is
+    gone: here the real mark, found within a second."""
+    real = rig.perception.place("red", x_mm=1500, y_mm=1800)  # 40° right, 2.3 m
+    rig.perception.place("red", x_mm=-500, y_mm=3000)  # 9° left, 3.0 m: off the course
+    ghost = keys.KnownMark("red", 600.0, 1000.0, t=0.0, range_mm=1170.0, seen=6)  # 31° right
+    remembered = keys.KnownMark("red", real.x_mm, real.y_mm, t=0.0, range_mm=2900.0, seen=80)
+    py_trees.blackboard.Blackboard.set(keys.KNOWN, (ghost, remembered))
+    node = SearchWhenLost()
+    # As in the route: the waypoint's Pass selects its target once, then searches.
+    tree = rig.tree(py_trees.composites.Sequence("Root", memory=False, children=[
+        rig.perception, py_trees.composites.Sequence("Pass", memory=True, children=[
+            SelectTarget(colour="red", waypoint=0), node])]))
+    tree.tick()
+    first = rig.bb(keys.TARGET)
+    assert first.remembered and first.world == ghost.world  # the nearest memory, out of view
+    assert rig.robot.wheels == (TURN_WHEEL, -TURN_WHEEL)  # toward it: right
+    log = rig.run(tree, max_ticks=600)
+    assert log.reached and not node.forgot_memory
+    assert log.records[-1].t < 1.5  # not after a full turn (9 s)
+    target = rig.bb(keys.TARGET)
+    assert target.sighting is not None
+    assert (target.sighting.world_x, target.sighting.world_y) == \
+        pytest.approx((real.x_mm, real.y_mm), abs=5)
+    assert all(k.world != ghost.world for k in rig.bb(keys.KNOWN, ()))
