@@ -274,6 +274,14 @@ class DetectSettings(BaseModel):
         "point's row, within this camera pitch and roll, degrees (focal_px·tan t + width/2·tan t "
         "px, plus 4 px). null: marks anywhere in the frame.",
     )
+    tint_limit: float | None = Field(
+        default=0.05, ge=0, le=1, allow_inf_nan=False,
+        description="Largest green–magenta part of the white balance (ln G − (ln B + ln R)/2 of "
+        "the grey-world gains). Room lights differ along blue–amber; a strong green or magenta "
+        "excess in the greys is a painted wall or carpet, and correcting it moved a yellow mark "
+        "to orange. null: plain grey world (a camera with a green tint of its own: better fix "
+        "it in the camera).",
+    )
 
 
 class Camera(BaseModel):

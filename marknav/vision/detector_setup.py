@@ -8,6 +8,9 @@ camera model (``camera.detect`` in the mission file).
   principal point's row (the image centre's without intrinsics). ``horizon_tolerance_deg``
   covers the camera's pitch (f·tan t rows) and roll (up to width/2·tan t rows at the image
   edges), plus ``HORIZON_SLACK_PX`` for the centre's measurement.
+- **White balance held to the room's light** (``tint_limit``): the grey-world correction's
+  green–magenta part is limited; a room's lights differ along blue–amber, and a strong green or
+  magenta cast in its greys is a painted wall or carpet (:attr:`DetectorConfig.tint_limit`).
 
 Frames of another size than the mission's camera (a camera that delivers another mode) get
 their own detector, the focal length and principal point scaled to them.
@@ -16,6 +19,7 @@ their own detector, the focal length and principal point scaled to them.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from marknav.vision.detect import Detector, DetectorConfig, Mark
@@ -37,19 +41,23 @@ ROBOT_FLOOR_PX = 5.0
 
 def camera_detector_config(*, width: int, height: int, focal_px: float, mark_radius_mm: float,
                            max_range_mm: float | None, horizon_tolerance_deg: float | None,
-                           horizon_row: float | None = None) -> DetectorConfig:
+                           horizon_row: float | None = None,
+                           tint_limit: float | None = None) -> DetectorConfig:
     """The detector config for a ``width`` × ``height`` camera of focal length ``focal_px``
-    (``horizon_row``: the principal point's row; default the image centre's)."""
+    (``horizon_row``: the principal point's row; default the image centre's; ``tint_limit``:
+    :attr:`DetectorConfig.tint_limit`)."""
     row, tolerance = None, DetectorConfig.horizon_tolerance_px
     if horizon_tolerance_deg is not None:
         t = math.tan(math.radians(horizon_tolerance_deg))
         row = (height - 1) / 2.0 if horizon_row is None else horizon_row
         tolerance = (focal_px + width / 2.0) * t + HORIZON_SLACK_PX
     if max_range_mm is None:
-        return DetectorConfig(horizon_row=row, horizon_tolerance_px=tolerance)
-    return DetectorConfig.for_camera(focal_px=focal_px, mark_radius_mm=mark_radius_mm,
-                                     max_range_mm=max_range_mm, floor_px=ROBOT_FLOOR_PX,
-                                     horizon_row=row, horizon_tolerance_px=tolerance)
+        return DetectorConfig(horizon_row=row, horizon_tolerance_px=tolerance,
+                              tint_limit=tint_limit)
+    return replace(DetectorConfig.for_camera(
+        focal_px=focal_px, mark_radius_mm=mark_radius_mm, max_range_mm=max_range_mm,
+        floor_px=ROBOT_FLOOR_PX, horizon_row=row, horizon_tolerance_px=tolerance),
+        tint_limit=tint_limit)
 
 
 class CameraDetector:
@@ -57,8 +65,10 @@ class CameraDetector:
 
     def __init__(self, palette: Palette, *, width: int, height: int, focal_px: float,
                  mark_radius_mm: float, max_range_mm: float | None,
-                 horizon_tolerance_deg: float | None, horizon_row: float | None = None) -> None:
+                 horizon_tolerance_deg: float | None, horizon_row: float | None = None,
+                 tint_limit: float | None = None) -> None:
         self.palette = palette
+        self._tint_limit = tint_limit
         self._camera = (width, height, focal_px, horizon_row)
         self._mark_radius_mm = mark_radius_mm
         self._max_range_mm = max_range_mm
@@ -73,7 +83,7 @@ class CameraDetector:
                    focal_px=cam.focal_px, mark_radius_mm=mission.marks.radius_mm,
                    max_range_mm=cam.detect.max_range_mm,
                    horizon_tolerance_deg=cam.detect.horizon_tolerance_deg,
-                   horizon_row=horizon_row)
+                   horizon_row=horizon_row, tint_limit=cam.detect.tint_limit)
 
     def config_for(self, width: int, height: int) -> DetectorConfig:
         """The config frames of ``width`` × ``height`` are searched with."""
@@ -87,7 +97,7 @@ class CameraDetector:
             config = camera_detector_config(
                 width=width, height=height, focal_px=focal * k,
                 mark_radius_mm=self._mark_radius_mm, max_range_mm=self._max_range_mm,
-                horizon_tolerance_deg=self._tolerance_deg,
+                horizon_tolerance_deg=self._tolerance_deg, tint_limit=self._tint_limit,
                 horizon_row=None if row is None else (row + 0.5) * height / h0 - 0.5)
             detector = self._detectors[(width, height)] = Detector(self.palette, config)
         return detector

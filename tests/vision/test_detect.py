@@ -24,6 +24,7 @@ RED = ColourRange("red", 170, 8)
 BLUE = ColourRange("blue", 95, 130)
 GREEN = ColourRange("green", 40, 85)
 ORANGE = ColourRange("orange", 9, 20)
+YELLOW = ColourRange("yellow", 26, 36)
 
 Canvas = npt.NDArray[np.float32]
 
@@ -133,6 +134,7 @@ def test_bad_input_and_bad_config_are_refused() -> None:
         ({"min_radius": 10.0, "min_partial_radius": 8.0}, "min_partial_radius must be >= "),
         ({"max_radius": 2.0}, "max_radius must be >= min_radius"),
         ({"gain_limits": (1.2, 1.6)}, "gain_limits"),
+        ({"tint_limit": -0.1}, "tint_limit"),
         ({"min_fill": 1.5}, r"min_fill must be in \[0, 1\]"),
     ]:
         with pytest.raises(ValueError, match=message):
@@ -187,6 +189,66 @@ def test_gains_are_clamped() -> None:
     b, g, r = detector.last_gains
     assert b == pytest.approx(1.6)  # 1.87 unclamped
     assert 0.6 <= r < g < 1.0
+
+
+def _tint(hue: float, sat: float, value: float = 150.0) -> tuple[float, float, float]:
+    r, g, b = colorsys.hsv_to_rgb((hue * 2.0 % 360.0) / 360.0, sat / 255.0, value / 255.0)
+    return b * 255.0, g * 255.0, r * 255.0
+
+
+def _tinted_room(hue: float) -> Canvas:
+    """A room whose wall, three quarters of the frame, is painted ``hue`` (S 70), below it a
+    grey floor, a yellow mark in front of the wall."""
+    big = canvas(240, 320)
+    big[: 180 * S] = _tint(hue, 70.0)
+    disc(big, 160.0, 120.0, 20.0, bgr(YELLOW.centre_hue))
+    return big
+
+
+def _tint_of(gains: tuple[float, float, float]) -> float:
+    b, g, r = gains
+    return math.log(g) - 0.5 * (math.log(b) + math.log(r))
+
+
+@pytest.mark.parametrize("hue", [50.0, 150.0])  # green, magenta walls
+def test_a_painted_wall_is_not_taken_for_a_coloured_light_with_a_tint_limit(hue: float) -> None:
+    """The robot's detector (``tint_limit``, camera.detect.tint_limit): a painted wall's green or
+    magenta is the room's colour, not the light's. Plain grey world took a green wall for a
+    green light, cut green and moved the yellow mark to orange (a magenta one: to green). (A
+    teal wall's blue half lies on the blue–amber axis: no grey world can tell it from a cool
+    light.)"""
+    palette = (ColourRange("orange", 3, 25), YELLOW, GREEN)
+    plain = Detector(palette)
+    plain_marks = plain.detect(finish(_tinted_room(hue)))
+    limited = Detector(palette, DetectorConfig(tint_limit=0.05))
+    marks = limited.detect(finish(_tinted_room(hue)))
+    assert abs(_tint_of(plain.last_gains)) > 0.1  # plain grey world corrects the wall
+    assert abs(_tint_of(limited.last_gains)) <= 0.05 + 1e-9
+    assert [m.colour for m in marks] == ["yellow"]
+    assert [m.colour for m in plain_marks] != ["yellow"]
+
+
+def test_a_tint_limit_keeps_the_blue_amber_correction() -> None:
+    """A warm light is undone as much with the limit as without: only the green–magenta part
+    of the gains is held."""
+    warm = (0.8, 1.0, 1.2)
+    plain, limited = Detector((YELLOW,)), Detector((YELLOW,), DetectorConfig(tint_limit=0.05))
+    for d in (plain, limited):
+        d.detect(finish(canvas(240, 320), gain=warm))
+        b, _g, r = d.last_gains
+        assert math.log(b / r) == pytest.approx(math.log(1.2 / 0.8), abs=0.03), d.last_gains
+
+
+def test_a_clipped_mark_keeps_its_colour_under_the_white_balance() -> None:
+    """A bright yellow mark under a cool light: red and green clipped at 255. The balance raises
+    red by 1.2; the balanced image clips again at 255 (hue 29, yellow), and so must the mark's
+    measured colour (255 × 1.2 against 250 read hue 24, orange: random worlds 1027, 1113)."""
+    big = canvas(240, 320, grey=(140.0, 118.0, 98.0))  # a cool cast: gains ≈ (0.85, 1.0, 1.21)
+    disc(big, 160.0, 120.0, 15.0, (2.0, 255.0, 255.0))
+    detector = Detector((ColourRange("orange", 3, 25), YELLOW))  # the generator's ranges
+    (mark,) = detector.detect(finish(big, noise=1.0))
+    assert detector.last_gains[2] > 1.15
+    assert mark.colour == "yellow" and mark.radius == pytest.approx(15.0, abs=0.5)
 
 
 @pytest.mark.parametrize("gain", [0.4, 1.0, 1.6])

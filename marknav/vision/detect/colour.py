@@ -189,7 +189,6 @@ class _ColourStage(_DetectorBase):
 
     def balance_sample(self, tiny: U8Array | Mat) -> tuple[tuple[float, float, float], float]:
         """:meth:`white_balance` of its ≈ 48-pixel-wide subsample."""
-        lo, hi = self.config.gain_limits
         gains = (1.0, 1.0, 1.0)
         grey = -1.0
         hsv = cv2.cvtColor(tiny, cv2.COLOR_BGR2HSV)
@@ -208,7 +207,7 @@ class _ColourStage(_DetectorBase):
                 break
             mean = cv2.mean(tiny, mask=greyish)
             grey = (mean[0] + mean[1] + mean[2]) / 3.0
-            b, g, r = (min(hi, max(lo, grey / max(c, 1.0))) for c in mean[:3])
+            b, g, r = self._light_gains(tuple(grey / max(c, 1.0) for c in mean[:3]))
             gains = (b, g, r)
             if max(abs(b - 1.0), abs(g - 1.0), abs(r - 1.0)) <= 0.02:
                 break
@@ -218,6 +217,30 @@ class _ColourStage(_DetectorBase):
             mean = cv2.mean(tiny)
             grey = (mean[0] + mean[1] + mean[2]) / 3.0
         return gains, grey
+
+    def _light_gains(self, gains: Sequence[float]) -> tuple[float, float, float]:
+        """Grey-world ``gains`` (B, G, R) held to what a room's light can do
+        (``config.tint_limit``), then clamped to ``gain_limits``.
+
+        Room lights differ mostly along the blue–amber axis (daylight, shade, incandescent: the
+        black-body locus). A strong green or magenta excess in a room's greys is the room's own
+        colour (a painted wall, a carpet), not the light's. In log gains the correction is split
+        into its blue–amber part ``(ln B − ln R)/2``, kept, and its green–magenta part
+        ``ln G − (ln B + ln R)/2``, held to ±``tint_limit``; their mean is kept. ``None`` (the
+        bare detector's default): plain grey world — photographs from unknown cameras carry
+        green tints of their own (OpenCV's board.jpg needs −0.25).
+        """
+        lo, hi = self.config.gain_limits
+        limit = self.config.tint_limit
+        if limit is not None:
+            lb, lg, lr = (math.log(max(1e-3, float(c))) for c in gains[:3])
+            mean = (lb + lg + lr) / 3.0
+            u = (lb - lr) / 2.0
+            v = min(limit, max(-limit, lg - (lb + lr) / 2.0))
+            gains = tuple(math.exp(x) for x in (mean + u - v / 3.0, mean + 2.0 * v / 3.0,
+                                                mean - u - v / 3.0))
+        b, g, r = (min(hi, max(lo, float(c))) for c in gains[:3])
+        return b, g, r
 
     def _value_floor(self, grey: float) -> int:
         cfg = self.config

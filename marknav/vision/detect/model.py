@@ -59,6 +59,11 @@ class DetectorConfig:
     white_balance: bool = True
     #: Lowest and highest white-balance gain per channel.
     gain_limits: tuple[float, float] = (0.6, 1.6)
+    #: Largest green–magenta part of the white balance (natural log of G over the mean of B and
+    #: R), or ``None`` for none: a room's lights differ along blue–amber, and a strong green or
+    #: magenta excess in its greys is a painted wall or carpet. The robot's detector sets it
+    #: (``camera.detect.tint_limit``); photographs from unknown cameras need plain grey world.
+    tint_limit: float | None = None
     #: The palette's value floors hold for scenes whose grey level is at least this (0..255);
     #: in darker scenes (an under-exposed camera, dim light) they scale down with it.
     val_ref_grey: float = 100.0
@@ -184,6 +189,8 @@ class DetectorConfig:
         lo, hi = self.gain_limits
         if not 0 < lo <= 1 <= hi:
             raise ValueError(f"gain_limits must satisfy 0 < low <= 1 <= high, got {lo, hi}")
+        if self.tint_limit is not None and not 0.0 <= self.tint_limit <= 1.0:
+            raise ValueError(f"tint_limit must be in [0, 1] or None, got {self.tint_limit}")
         for name in ("min_axis_ratio", "circle_ratio", "min_support", "max_continued",
                      "min_arc", "min_fill", "val_rel_min", "min_score", "max_extent",
                      "min_small_extent", "min_solidity"):

@@ -126,7 +126,9 @@ class _WholeMarks(_ColourStage):
             fitted = measured.ellipse
             b, g, r = measured.mark_bgr
             gb, gg, gr = self.last_gains
-            balanced = (b * gb, g * gg, r * gr)
+            # Saturated as the balanced search image is: a channel clipped at 255 stays 255
+            # (a bright yellow mark, R and G clipped, times a red gain of 1.2 read orange).
+            balanced = (min(255.0, b * gb), min(255.0, g * gg), min(255.0, r * gr))
         error = measured.error
         if error > limit:
             log.debug("whole mark at (%.1f, %.1f) r=%.1f: outline error %.2f px",
