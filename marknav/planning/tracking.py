@@ -132,6 +132,11 @@ class PurePursuit:
         self._seg_len2 = self._seg_len ** 2
         self._cum = np.concatenate(([0.0], np.cumsum(self._seg_len)))
         self._cum_list: list[float] = self._cum.tolist()  # bisect beats searchsorted on scalars
+        # point_at's operands as Python floats (the same float64 arithmetic, without NumPy's
+        # per-scalar cost): every control cycle.
+        self._points_list: list[list[float]] = self.points.tolist()
+        self._seg_list: list[list[float]] = seg.tolist()
+        self._seg_len_list: list[float] = self._seg_len.tolist()
         self.length_mm = float(self._cum[-1])
         end_dir = seg[-1] / self._seg_len[-1]
         self.end: Vec2 = (float(self.points[-1, 0]), float(self.points[-1, 1]))
@@ -153,7 +158,10 @@ class PurePursuit:
         p = np.array(xy, dtype=float)
         u = np.einsum("ij,ij->i", p - starts, seg)
         u /= self._seg_len2[first:last]
-        np.clip(u, 0.0, 1.0, out=u)
+        # np.clip(u, 0, 1, out=u), without np.clip's Python-level wrapper (~3 µs a call): the
+        # same max-then-min per element (u is never NaN: no segment has zero length).
+        np.maximum(u, 0.0, out=u)
+        np.minimum(u, 1.0, out=u)
         d = u[:, None] * seg  # foot of the perpendicular − xy: starts + u·seg − xy
         d += starts
         d -= p
@@ -167,10 +175,10 @@ class PurePursuit:
             return (self.end[0] + extra * self.end_direction[0],
                     self.end[1] + extra * self.end_direction[1])
         s = max(0.0, s_mm)
-        i = min(bisect.bisect_right(self._cum_list, s) - 1, len(self._seg) - 1)
-        u = (s - self._cum[i]) / self._seg_len[i]
-        p = self.points[i] + u * self._seg[i]
-        return (float(p[0]), float(p[1]))
+        i = min(bisect.bisect_right(self._cum_list, s) - 1, len(self._seg_list) - 1)
+        u = (s - self._cum_list[i]) / self._seg_len_list[i]
+        (x, y), (dx, dy) = self._points_list[i], self._seg_list[i]
+        return (x + u * dx, y + u * dy)
 
     def distance_to_end_line(self, pose: Pose) -> float:
         """Signed distance (mm) from the pose to the end's normal line, positive before it."""

@@ -184,8 +184,15 @@ class FakePerception(PerceptionBase):
         c, s = math.cos(pose.theta), math.sin(pose.theta)
         px, py = pose.x, pose.y
         radius = self.mark_radius_mm
-        far = self.focal_px * radius / self.min_radius_px + 1.0
-        half = 0.5 * self.image_width / self.focal_px
+        focal = self.focal_px
+        min_r = self.min_radius_px
+        far = focal * radius / min_r + 1.0
+        half = 0.5 * self.image_width / focal
+        # pinhole_pixels and _fits inlined (the same expressions, so the same floats): this loop
+        # runs for every world mark every tick.
+        centre = keys.image_centre(self.image_width)
+        right_edge = self.image_width - 1
+        bottom = self.image_height - 1
         out = []
         marks = tuple(self.world)
         if marks != self._world_key:  # (colour, x, y) of each mark, made when the world changes
@@ -199,9 +206,10 @@ class FakePerception(PerceptionBase):
             left = c * dy - s * dx
             if abs(left) > forward * half + radius + 1.0:
                 continue
-            x_px, r_px = pinhole_pixels(forward, left, focal_px=self.focal_px,
-                                        radius_mm=radius, image_width=self.image_width)
-            if self._fits(x_px, r_px):
+            r_px = focal * radius / forward
+            x_px = centre - focal * left / forward
+            if (r_px >= min_r and x_px - r_px >= 0.0 and x_px + r_px <= right_edge
+                    and 2.0 * r_px <= bottom):
                 out.append((colour, forward, left, x_px, r_px))
         return out
 
