@@ -21,6 +21,7 @@ does. ``camera_on = False`` stops the frames (the camera is lost after ``camera_
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -30,6 +31,8 @@ from marknav.behaviours.perception import DEFAULT_CAMERA_TIMEOUT_S, Observation,
 from marknav.planning.kinematics import Pose
 
 __all__ = ["FakePerception", "RobotMark", "Script", "WorldMark", "pinhole_pixels"]
+
+_RANGE = operator.attrgetter("range_mm")
 
 
 @dataclass(frozen=True)
@@ -167,11 +170,11 @@ class FakePerception(PerceptionBase):
             c, s = math.cos(odometry.theta), math.sin(odometry.theta)
             width = self.image_width
             for colour, forward, left, x_px, r_px in relative:
-                marks.append(keys.SeenMark(colour=colour, forward_mm=forward, left_mm=left,
-                                           world_x=ox + c * forward - s * left,
-                                           world_y=oy + s * forward + c * left, x_px=x_px,
-                                           radius_px=r_px, image_width=width, t=t))
-        marks.sort(key=lambda m: m.range_mm)
+                # SeenMark(colour, forward_mm, left_mm, world_x, world_y, x_px, radius_px,
+                # image_width, t), positionally: made for every mark of every tick
+                marks.append(keys.SeenMark(colour, forward, left, ox + c * forward - s * left,
+                                           oy + s * forward + c * left, x_px, r_px, width, t))
+        marks.sort(key=_RANGE)
         info = keys.FrameInfo(index=tick, t=t, width=self.image_width,
                               height=self.image_height, marks=len(marks))
         return Observation(frame=info, marks=tuple(marks), pose=odometry)
