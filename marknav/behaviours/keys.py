@@ -155,12 +155,12 @@ def image_centre(width: int) -> float:
     return 0.5 * (width - 1)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class FrameInfo:
     """The latest frame perception processed: source index, mission-clock time it was processed,
     size, number of marks found, and ``range_sigma``: while the range law is being learnt
     (``camera.learn_range``), the σ of its scale (of ln d, ≈ the relative error of a range); 0
-    when the law is fixed."""
+    when the law is fixed. (Made every frame: one-step constructor, as :class:`SeenMark`'s.)"""
 
     index: int
     t: float
@@ -168,6 +168,11 @@ class FrameInfo:
     height: int
     marks: int
     range_sigma: float = 0.0
+
+    def __init__(self, index: int, t: float, width: int, height: int, marks: int,
+                 range_sigma: float = 0.0) -> None:
+        self.__dict__.update(index=index, t=t, width=width, height=height, marks=marks,
+                             range_sigma=range_sigma)
 
 
 @dataclass(frozen=True, init=False)

@@ -76,14 +76,19 @@ FEEDBACK_MARKS = 3
 DEFAULT_CAMERA_TIMEOUT_S = 1.0
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class Observation:
     """One processed frame: its description, the marks in it, and the odometry pose they were
-    placed with (``None``: ask the robot)."""
+    placed with (``None``: ask the robot). (Made every frame: one-step constructor, as
+    :class:`~marknav.behaviours.keys.SeenMark`'s.)"""
 
     frame: keys.FrameInfo
     marks: tuple[keys.SeenMark, ...]
     pose: Pose | None = None
+
+    def __init__(self, frame: keys.FrameInfo, marks: tuple[keys.SeenMark, ...],
+                 pose: Pose | None = None) -> None:
+        self.__dict__.update(frame=frame, marks=marks, pose=pose)
 
 
 def range_model_of(mission: Mission) -> RangeModel:

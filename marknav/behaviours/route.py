@@ -45,6 +45,7 @@ from py_trees.common import Status
 
 from marknav.behaviours.approach import ApproachWhileCentring
 from marknav.behaviours.bypass import BezierBypass
+from marknav.behaviours.composites import Selector, Sequence
 from marknav.behaviours.keys import Side
 from marknav.behaviours.perception import Perception
 from marknav.behaviours.safety import BackOff, NotBumped, SafetyGuard
@@ -87,24 +88,24 @@ def waypoint(
         where = f" (pass on its {side})" if side is not None else ""
         name = (f"Waypoint {index + 1}: {colour}{where}" if index is not None
                 else f"Waypoint: {colour}{where}")
-    seen_or_search = py_trees.composites.Selector(
+    seen_or_search = Selector(
         "Seen?|Search", memory=False, children=[TargetSeen(), SearchWhenLost()])
-    close_in = py_trees.composites.Sequence(
+    close_in = Sequence(
         "CloseIn", memory=False, children=[seen_or_search, ApproachWhileCentring()])
-    reach = py_trees.composites.Selector(
+    reach = Selector(
         "Reach", memory=False, children=[TargetLocked(waypoint_id=wid), close_in])
-    pass_ = py_trees.composites.Sequence("Pass", memory=True, children=[
+    pass_ = Sequence("Pass", memory=True, children=[
         SelectTarget(colour=colour, side=side, waypoint=number, waypoint_id=wid),
         reach,
         BezierBypass(),
     ])
-    return py_trees.composites.Selector(name, memory=False, children=[
+    return Selector(name, memory=False, children=[
         WaypointPassed(waypoint_id=wid), pass_])
 
 
 def route(mission: Mission, *, name: str = "Route") -> Behaviour:
     """``Route``: Sequence(memory=True) of one :func:`waypoint` per entry of ``mission.route``."""
-    return py_trees.composites.Sequence(name, memory=True, children=[
+    return Sequence(name, memory=True, children=[
         waypoint(colour, side=mission.side_of(colour), index=i)
         for i, colour in enumerate(mission.route)
     ])
@@ -112,7 +113,7 @@ def route(mission: Mission, *, name: str = "Route") -> Behaviour:
 
 def bump_recovery(name: str = "BumpRecovery", *, backoff: BackOff | None = None) -> Behaviour:
     """``BumpRecovery``: Selector(memory=False) of ``NotBumped?`` and ``BackOff``."""
-    return py_trees.composites.Selector(name, memory=False, children=[
+    return Selector(name, memory=False, children=[
         NotBumped(), backoff if backoff is not None else BackOff()])
 
 
@@ -128,7 +129,7 @@ def build_route_tree(
     pass :class:`marknav.testing.FakePerception`). Set the tree up with
     ``BehaviourTree.setup(robot=..., clock=..., mission=..., camera=...)``.
     """
-    return py_trees.composites.Sequence(name, memory=False, children=[
+    return Sequence(name, memory=False, children=[
         perception if perception is not None else Perception(),
         SafetyGuard(),
         bump_recovery(),

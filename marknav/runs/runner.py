@@ -23,6 +23,7 @@ from typing import Any, Protocol
 import py_trees
 from py_trees.common import Status
 
+from marknav.behaviours.composites import tick_now
 from marknav.clock import Clock
 from marknav.drivers.robot import ESTOPPED, FAULT, Robot
 from marknav.runs.report import ABORTED, FAILED, SUCCESS, EventLog, RunReport
@@ -95,8 +96,11 @@ class MissionTree(py_trees.trees.BehaviourTree):
 
     py_trees walks the whole tree after every tick for "full" visitors even when there are none:
     607 nodes for a 50-waypoint route, about half the tick. Here the walk happens only when a
-    full visitor is attached (the live view's SnapshotVisitor is not one). Behaviour is
-    otherwise the same: handlers, visitors and ``count`` as in py_trees.
+    full visitor is attached (the live view's SnapshotVisitor is not one). Without a partial
+    visitor either (nothing looks at the nodes as they are ticked), the tree is ticked by
+    :func:`marknav.behaviours.composites.tick_now`: the same calls in the same order, without
+    a generator per node. Behaviour is otherwise the same: handlers, visitors and ``count`` as
+    in py_trees.
     """
 
     def tick(
@@ -113,9 +117,12 @@ class MissionTree(py_trees.trees.BehaviourTree):
             visitor.initialise()
         partial = [v for v in visitors if not v.full]
         full = [v for v in visitors if v.full]
-        for node in self.root.tick():
-            for visitor in partial:
-                node.visit(visitor)
+        if partial:
+            for node in self.root.tick():
+                for visitor in partial:
+                    node.visit(visitor)
+        else:  # nobody looks at the nodes as they are ticked: no generators where possible
+            tick_now(self.root)
         if full:
             for node in self.root.iterate():
                 for visitor in full:

@@ -21,6 +21,7 @@ does. ``camera_on = False`` stops the frames (the camera is lost after ``camera_
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -30,6 +31,8 @@ from marknav.behaviours.perception import DEFAULT_CAMERA_TIMEOUT_S, Observation,
 from marknav.planning.kinematics import Pose
 
 __all__ = ["FakePerception", "RobotMark", "Script", "WorldMark", "pinhole_pixels"]
+
+_RANGE = operator.attrgetter("range_mm")
 
 
 @dataclass(frozen=True)
@@ -167,11 +170,11 @@ class FakePerception(PerceptionBase):
             c, s = math.cos(odometry.theta), math.sin(odometry.theta)
             width = self.image_width
             for colour, forward, left, x_px, r_px in relative:
-                marks.append(keys.SeenMark(colour=colour, forward_mm=forward, left_mm=left,
-                                           world_x=ox + c * forward - s * left,
-                                           world_y=oy + s * forward + c * left, x_px=x_px,
-                                           radius_px=r_px, image_width=width, t=t))
-        marks.sort(key=lambda m: m.range_mm)
+                # SeenMark(colour, forward_mm, left_mm, world_x, world_y, x_px, radius_px,
+                # image_width, t), positionally: made for every mark of every tick
+                marks.append(keys.SeenMark(colour, forward, left, ox + c * forward - s * left,
+                                           oy + s * forward + c * left, x_px, r_px, width, t))
+        marks.sort(key=_RANGE)
         info = keys.FrameInfo(index=tick, t=t, width=self.image_width,
                               height=self.image_height, marks=len(marks))
         return Observation(frame=info, marks=tuple(marks), pose=odometry)
@@ -184,8 +187,15 @@ class FakePerception(PerceptionBase):
         c, s = math.cos(pose.theta), math.sin(pose.theta)
         px, py = pose.x, pose.y
         radius = self.mark_radius_mm
-        far = self.focal_px * radius / self.min_radius_px + 1.0
-        half = 0.5 * self.image_width / self.focal_px
+        focal = self.focal_px
+        min_r = self.min_radius_px
+        far = focal * radius / min_r + 1.0
+        half = 0.5 * self.image_width / focal
+        # pinhole_pixels and _fits inlined (the same expressions, so the same floats): this loop
+        # runs for every world mark every tick.
+        centre = keys.image_centre(self.image_width)
+        right_edge = self.image_width - 1
+        bottom = self.image_height - 1
         out = []
         marks = tuple(self.world)
         if marks != self._world_key:  # (colour, x, y) of each mark, made when the world changes
@@ -199,9 +209,10 @@ class FakePerception(PerceptionBase):
             left = c * dy - s * dx
             if abs(left) > forward * half + radius + 1.0:
                 continue
-            x_px, r_px = pinhole_pixels(forward, left, focal_px=self.focal_px,
-                                        radius_mm=radius, image_width=self.image_width)
-            if self._fits(x_px, r_px):
+            r_px = focal * radius / forward
+            x_px = centre - focal * left / forward
+            if (r_px >= min_r and x_px - r_px >= 0.0 and x_px + r_px <= right_edge
+                    and 2.0 * r_px <= bottom):
                 out.append((colour, forward, left, x_px, r_px))
         return out
 

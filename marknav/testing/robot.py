@@ -29,24 +29,33 @@ __all__ = ["DriveRequest", "FakeRobot", "WheelCommand"]
 SENSOR_PERIOD_S = 0.015
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class WheelCommand:
-    """What reached the wheels (the safety layer's sink): clock time, mm/s per wheel."""
+    """What reached the wheels (the safety layer's sink): clock time, mm/s per wheel. (Made at
+    every change of speed: a one-step constructor, as keys.SeenMark's.)"""
 
     t: float
     left: int
     right: int
 
+    def __init__(self, t: float, left: int, right: int) -> None:
+        self.__dict__.update(t=t, left=left, right=right)
 
-@dataclass(frozen=True)
+
+@dataclass(frozen=True, init=False)
 class DriveRequest:
-    """What a behaviour asked for: ``kind`` is ``drive``, ``backoff`` or ``stop``."""
+    """What a behaviour asked for: ``kind`` is ``drive``, ``backoff`` or ``stop``. (Made every
+    tick: a one-step constructor, as keys.SeenMark's.)"""
 
     t: float
     kind: str
     left: float
     right: float
     accepted: bool
+
+    def __init__(self, t: float, kind: str, left: float, right: float,
+                 accepted: bool) -> None:
+        self.__dict__.update(t=t, kind=kind, left=left, right=right, accepted=accepted)
 
 
 class _Sink:

@@ -230,3 +230,57 @@ def test_open_loop_steps_follow_the_curve_points() -> None:
     with pytest.raises(ValueError, match="steps_per_curve"):
         open_loop_wheel_steps(plan, START, speed_mm_s=250.0, wheel_base_mm=WB,
                               max_wheel_mm_s=MAX_WHEEL, steps_per_curve=0)
+
+
+def _point_at_reference(pp: PurePursuit, s_mm: float) -> tuple[float, float]:
+    """PurePursuit.point_at in NumPy, as it was before it used Python floats."""
+    if s_mm >= pp.length_mm:
+        extra = s_mm - pp.length_mm
+        return (pp.end[0] + extra * pp.end_direction[0], pp.end[1] + extra * pp.end_direction[1])
+    s = max(0.0, s_mm)
+    cum = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(pp.points, axis=0).T))))
+    i = min(int(np.searchsorted(cum, s, side="right")) - 1, len(pp.points) - 2)
+    seg = np.diff(pp.points, axis=0)
+    u = (s - cum[i]) / np.hypot(seg[i, 0], seg[i, 1])
+    p = pp.points[i] + u * seg[i]
+    return (float(p[0]), float(p[1]))
+
+
+def _closest_reference(pp: PurePursuit, xy: tuple[float, float], lo: float, hi: float) -> float:
+    """PurePursuit._closest with np.clip, as it was."""
+    import bisect
+
+    cum = pp._cum_list
+    first = max(0, bisect.bisect_right(cum, lo) - 1)
+    last = max(min(len(pp._seg), bisect.bisect_right(cum, hi)), first + 1)
+    starts, seg = pp.points[first:last], pp._seg[first:last]
+    p = np.array(xy, dtype=float)
+    u = np.einsum("ij,ij->i", p - starts, seg)
+    u /= pp._seg_len2[first:last]
+    np.clip(u, 0.0, 1.0, out=u)
+    d = u[:, None] * seg
+    d += starts
+    d -= p
+    k = int(np.einsum("ij,ij->i", d, d).argmin())
+    return float(cum[first + k] + u[k] * pp._seg_len[first + k])
+
+
+def test_point_at_and_closest_are_bitwise_the_numpy_arithmetic() -> None:
+    rng = np.random.default_rng(16)
+    checked = 0
+    for along, clearance, side in [(1500.0, 300.0, "left"), (900.0, 450.0, "right"),
+                                   (2500.0, 250.0, "left")]:
+        plan = plan_bypass(START, (0.0, along), mark_radius_mm=100.0, clearance_mm=clearance,
+                           side=side)  # type: ignore[arg-type]
+        polyline = np.cumsum(rng.normal(0.0, 40.0, size=(60, 2)), axis=0)
+        for path in (plan, polyline):
+            pp = PurePursuit(path, lookahead_mm=150.0, speed_mm_s=250.0, wheel_base_mm=WB,
+                             max_wheel_mm_s=MAX_WHEEL)
+            for s in rng.uniform(-50.0, pp.length_mm + 200.0, size=400):
+                assert pp.point_at(float(s)) == _point_at_reference(pp, float(s))
+                checked += 1
+            for x, y in rng.uniform(-600.0, max(along, 600.0), size=(300, 2)):
+                lo = float(rng.uniform(0.0, pp.length_mm))
+                hi = lo + float(rng.uniform(0.0, 600.0))
+                assert pp._closest((x, y), lo, hi) == _closest_reference(pp, (x, y), lo, hi)
+    assert checked == 2400

@@ -109,3 +109,52 @@ def test_visibility_from_true_pose_world_position_from_odometry(blackboard, manu
     wx = odo.x + m.forward_mm * math.cos(odo.theta) - m.left_mm * math.sin(odo.theta)
     assert m.world_x == pytest.approx(wx)
     assert m.world_x != pytest.approx(0.0, abs=1.0)
+
+
+def _in_view_reference(p, pose):
+    """FakePerception._in_view as it was before the cull's pixel test was inlined: the cull,
+    then pinhole_pixels and _fits."""
+    c, s = math.cos(pose.theta), math.sin(pose.theta)
+    radius = p.mark_radius_mm
+    far = p.focal_px * radius / p.min_radius_px + 1.0
+    half = 0.5 * p.image_width / p.focal_px
+    out = []
+    for w in p.world:
+        dx, dy = w.x_mm - pose.x, w.y_mm - pose.y
+        forward = c * dx + s * dy
+        if forward <= radius or forward > far:
+            continue
+        left = c * dy - s * dx
+        if abs(left) > forward * half + radius + 1.0:
+            continue
+        x_px, r_px = pinhole_pixels(forward, left, focal_px=p.focal_px, radius_mm=radius,
+                                    image_width=p.image_width)
+        if p._fits(x_px, r_px):
+            out.append((w.colour, forward, left, x_px, r_px))
+    return out
+
+
+@pytest.mark.parametrize("camera", [(590.0, 640, 480, 4.0), (300.0, 320, 240, 2.5),
+                                    (800.0, 1280, 720, 6.0)])
+def test_in_view_is_bitwise_the_pinhole_and_fit_tests(camera):
+    """The inlined pixel test gives exactly the floats (and the marks) of pinhole_pixels and
+    _fits, for many poses over a random field of marks."""
+    import random
+
+    from marknav.planning.kinematics import Pose
+
+    focal, width, height, min_r = camera
+    rng = random.Random(16)
+    p = FakePerception(focal_px=focal, image_width=width, image_height=height,
+                       min_radius_px=min_r, mark_radius_mm=rng.choice([60.0, 100.0, 150.0]))
+    for _ in range(80):
+        p.place(rng.choice(["red", "green", "blue"]), x_mm=rng.uniform(-6000, 6000),
+                y_mm=rng.uniform(-6000, 6000))
+    seen = 0
+    for _ in range(3000):
+        pose = Pose(rng.uniform(-5000, 5000), rng.uniform(-5000, 5000),
+                    rng.uniform(-math.pi, math.pi))
+        got = p._in_view(pose)
+        assert got == _in_view_reference(p, pose)
+        seen += len(got)
+    assert seen > 1000  # marks at every edge of the image were compared, not only empty views
