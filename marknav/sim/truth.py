@@ -97,7 +97,10 @@ def resample_path(
     step_mm: float = RESAMPLE_MM,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """(times, positions) keeping a point only once the robot moved ``step_mm`` from the last
-    kept one; the last point is always kept."""
+    kept one. The last point too: a path that ends in a turn on the spot ends where the turn
+    began (a last few millimetres of wobble after a search turn are not a direction of travel:
+    kept, they made a corner whose "way out" put every mark ahead of the robot behind it —
+    slalom seed 55's green mark, 950 mm ahead, "passed")."""
     ts = np.asarray(t, dtype=float)
     p = np.asarray(xy, dtype=float).reshape(-1, 2)
     if len(p) == 0:
@@ -108,8 +111,6 @@ def resample_path(
         if math.hypot(p[k, 0] - last[0], p[k, 1] - last[1]) >= step_mm:
             keep.append(k)
             last = p[k]
-    if keep[-1] != len(p) - 1:
-        keep.append(len(p) - 1)
     idx = np.asarray(keep)
     return ts[idx], p[idx]
 

@@ -135,6 +135,21 @@ def test_turning_on_the_spot_passes_nothing() -> None:
     assert len(q) <= 2
 
 
+def test_a_search_turn_at_the_end_of_a_run_passes_nothing_ahead() -> None:
+    """Slalom seed 55: the robot drove toward its mark, stopped 950 mm short, turned a full
+    search turn on the spot and the run ended, its centre 1 mm behind where the turn began. That
+    last millimetre was kept as the path's final direction — a reversal — so the mark ahead was
+    "behind along the way out" and counted passed at the corner (and the next mark, 2.5 m
+    ahead, passed on its wrong side)."""
+    w = world(("green", -300, 3800), ("red", 350, 5360))
+    t, p = polyline((0, 0), (-60, 2873), step_mm=25.0)  # every sample a step of travel
+    a = np.linspace(0.0, 2 * math.pi, 180)
+    spin = np.column_stack([-60.0 + 3.0 * np.sin(a), 2873.0 - 3.0 + 3.0 * np.cos(a)])
+    p = np.vstack([p, spin, [[-60.0, 2872.0]]])
+    t = np.concatenate([t, t[-1] + np.linspace(0.05, 9.0, 180), [t[-1] + 9.05]])
+    assert verdicts(t, p, w, ["green", "red"], ["right", "left"]) == ["skipped", "skipped"]
+
+
 def test_truth_path_rate_and_recheck() -> None:
     t, p = polyline((-300, 0), (-300, 3000), step_mm=3.0)  # 15 ms samples at 200 mm/s
     path = truth_path(list(t), [tuple(x) for x in p])
