@@ -51,6 +51,7 @@ from marknav.missions.registry import (
 )
 from marknav.missions.tree_checks import check_tree
 from marknav.sim.camera_model import SIM_FOCAL_PX, SIM_HEIGHT, SIM_WIDTH
+from marknav.vision.detector_setup import ROBOT_TINT_LIMIT
 from marknav.vision.palette import ColourRange, Palette
 from marknav.yamlio import Loc, Position, YamlDocument, load_yaml_file, validation_errors
 
@@ -275,7 +276,7 @@ class DetectSettings(BaseModel):
         "px, plus 4 px). null: marks anywhere in the frame.",
     )
     tint_limit: float | None = Field(
-        default=0.05, ge=0, le=1, allow_inf_nan=False,
+        default=ROBOT_TINT_LIMIT, ge=0, le=1, allow_inf_nan=False,
         description="Largest green–magenta part of the white balance (ln G − (ln B + ln R)/2 of "
         "the grey-world gains). Room lights differ along blue–amber; a strong green or magenta "
         "excess in the greys is a painted wall or carpet, and correcting it moved a yellow mark "

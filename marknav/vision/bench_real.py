@@ -29,7 +29,7 @@ import numpy as np
 from marknav.vision.bench import Image, match_marks, plain_hough, to_hsv
 from marknav.vision.composite import COMPOSITE_PALETTE, composite_frames, load_photos
 from marknav.vision.detect import Detector, DetectorConfig, Mark
-from marknav.vision.detector_setup import CameraDetector, camera_detector_config
+from marknav.vision.detector_setup import ROBOT_TINT_LIMIT, CameraDetector, camera_detector_config
 from marknav.vision.palette import ColourRange, Palette
 
 __all__ = [
@@ -136,7 +136,7 @@ def camera_config(width: int, horizon_row: float | None = None,
         width=width, height=round(width * CAMERA_HEIGHT / CAMERA_WIDTH),
         focal_px=CAMERA["focal_px"] * width / CAMERA_WIDTH,
         mark_radius_mm=CAMERA["mark_radius_mm"], max_range_mm=CAMERA["max_range_mm"],
-        horizon_tolerance_deg=None)
+        horizon_tolerance_deg=None, tint_limit=ROBOT_TINT_LIMIT)
     return replace(cfg, horizon_row=horizon_row, horizon_tolerance_px=horizon_tolerance_px)
 
 
@@ -259,7 +259,8 @@ def run_real_bench(corpus: str | Path, *, per_condition: int = 8, repeats: int =
         robot = CameraDetector(negative, width=CAMERA_WIDTH, height=CAMERA_HEIGHT,
                                focal_px=CAMERA["focal_px"],
                                mark_radius_mm=CAMERA["mark_radius_mm"],
-                               max_range_mm=CAMERA["max_range_mm"], horizon_tolerance_deg=3.0)
+                               max_range_mm=CAMERA["max_range_mm"], horizon_tolerance_deg=3.0,
+                               tint_limit=ROBOT_TINT_LIMIT)
         real["timing_640_camera_horizon"] = _timings(at_640, robot.detect, repeats, 0)
         backgrounds = load_photos(Path(corpus) / "real")
         composite, images = composite_figures(backgrounds, per_condition=per_condition)

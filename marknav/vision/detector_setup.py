@@ -29,7 +29,8 @@ from marknav.vision.palette import Palette
 if TYPE_CHECKING:
     from marknav.missions.schema import Mission
 
-__all__ = ["HORIZON_SLACK_PX", "ROBOT_FLOOR_PX", "CameraDetector", "camera_detector_config"]
+__all__ = ["HORIZON_SLACK_PX", "ROBOT_FLOOR_PX", "ROBOT_TINT_LIMIT", "CameraDetector",
+           "camera_detector_config"]
 
 #: Rows added to the horizon tolerance for the error of a measured centre.
 HORIZON_SLACK_PX = 4.0
@@ -37,6 +38,9 @@ HORIZON_SLACK_PX = 4.0
 #: but below 5 px their range is off by 10-16 % (README, *Small cameras*) and a 160×120
 #: camera's slalom goes wrong steering by them (wrong side, seed 5 of the camera-run test).
 ROBOT_FLOOR_PX = 5.0
+#: The robot's white-balance tint limit (``camera.detect.tint_limit``'s default): see
+#: :attr:`DetectorConfig.tint_limit`.
+ROBOT_TINT_LIMIT = 0.05
 
 
 def camera_detector_config(*, width: int, height: int, focal_px: float, mark_radius_mm: float,
