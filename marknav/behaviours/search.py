@@ -165,11 +165,11 @@ class SearchWhenLost(DrivingBehaviour):
             self.write(keys.KNOWN, known)
         passed = excluded_passes(self.read(keys.PASSED, ()), self.mission)
         marks: tuple[keys.SeenMark, ...] = self.read(keys.MARKS, ())
-        chosen = reselect(target, marks, known, passed, self.robot.pose())
+        pose = self.robot.pose()
+        chosen = reselect(target, marks, known, passed, pose)
         if chosen.world is None:
             chosen = replace(target, remembered=False)
         self.write(keys.TARGET, chosen)
-        self.direction = search_direction(chosen, self.robot.pose(),
-                                          passed[-1] if passed else None)
+        self.direction = search_direction(chosen, pose, passed[-1] if passed else None)
         self._t0 = self.now()
         self.turned_rad = 0.0
