@@ -45,6 +45,7 @@ from types import FrameType
 from typing import Any
 
 from marknav.errors import InputError
+from marknav.runs.cvthreads import one_opencv_thread
 
 __all__ = ["ORPHAN_POLL_S", "EvaluationInterrupted", "Job", "one_opencv_thread", "run_jobs"]
 
@@ -68,25 +69,6 @@ _RUN_LOCK = threading.Lock()
 
 class EvaluationInterrupted(KeyboardInterrupt):
     """SIGINT or SIGTERM arrived while the evaluation's runs were executing."""
-
-
-@contextmanager
-def one_opencv_thread() -> Iterator[None]:
-    """OpenCV on one thread while the block runs, then as before.
-
-    An evaluation run is one thread's work. OpenCV's worker threads (on by default, one per
-    core) make no difference to its results but cost CPU at 640×480 — measured on the 2-core
-    CI machine: a slalom run took 3.8 s of CPU with one thread and 5.1 s with two — and, when
-    runs go in parallel (``--jobs``, Dask workers), they compete for the cores the other runs
-    need: with them, two Dask workers evaluated only 1.42× as fast as one."""
-    import cv2
-
-    before = cv2.getNumThreads()
-    cv2.setNumThreads(1)
-    try:
-        yield
-    finally:
-        cv2.setNumThreads(before)
 
 
 def _run(job: Job, max_time_s: float | None) -> Any:

@@ -7,6 +7,7 @@ checked before the robot moves: a bad mission, world, port or camera raises
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 from dataclasses import dataclass, field
@@ -21,6 +22,7 @@ from marknav.behaviours.route import build_route_tree, failure_reason
 from marknav.errors import InputError
 from marknav.missions.registry import BuildContext, build_tree
 from marknav.missions.schema import Mission, load_mission
+from marknav.runs.cvthreads import one_opencv_thread
 from marknav.runs.report import ABORTED, FAILED, SUCCESS, EventLog, RunReport, WaypointResult
 from marknav.runs.runlog import Recorder
 from marknav.runs.runner import Environment, RunOptions, run_tree
@@ -213,13 +215,16 @@ def execute(req: RunRequest) -> RunResult:
                         else default_max_time_s(mission)),
             realtime=req.realtime, sleep=req.robot != "sim", observer=recorder,
         )
-        run_tree(
-            root, env, report, events, options,
-            setup_kwargs={"robot": env.robot, "clock": env.clock, "mission": mission,
-                          "camera": env.camera},
-            waypoint_outcomes=lambda: waypoint_outcomes(mission, report),
-            classify=_classify,
-        )
+        # A simulated run is lock-step on small arrays: one OpenCV thread is as fast and
+        # leaves the other core free (:mod:`marknav.runs.cvthreads`).
+        with one_opencv_thread() if req.robot == "sim" else contextlib.nullcontext():
+            run_tree(
+                root, env, report, events, options,
+                setup_kwargs={"robot": env.robot, "clock": env.clock, "mission": mission,
+                              "camera": env.camera},
+                waypoint_outcomes=lambda: waypoint_outcomes(mission, report),
+                classify=_classify,
+            )
     except (InputError, KeyboardInterrupt) as exc:
         if env is None:  # the start failed: say why in the report and the log
             why = (f"interrupted ({exc or 'SIGINT'}) while starting"

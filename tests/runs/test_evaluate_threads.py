@@ -58,3 +58,30 @@ def test_the_setting_comes_back_after_an_exception() -> None:
         assert cv2.getNumThreads() == 2
     finally:
         cv2.setNumThreads(before)
+
+
+def test_a_simulated_run_ticks_on_one_opencv_thread_then_restores_it(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """``marknav run`` on the simulator (lock-step, small arrays) keeps OpenCV to one thread
+    while the tree ticks, and gives the previous setting back when the run ends."""
+    from marknav.runs import runner
+    from marknav.testing import make_mission
+
+    seen: list[int] = []
+    original = runner.MissionTree.tick
+
+    def watching(self: Any) -> Any:
+        seen.append(cv2.getNumThreads())
+        return original(self)
+
+    monkeypatch.setattr(runner.MissionTree, "tick", watching)
+    before = cv2.getNumThreads()
+    cv2.setNumThreads(3)
+    try:
+        report = runmod.execute(runmod.RunRequest(mission=make_mission(**TINY), seed=1,
+                                                  max_time_s=0.2)).report
+        assert report.outcome == "failed" and report.ticks >= 3
+        assert seen and set(seen) == {1}
+        assert cv2.getNumThreads() == 3
+    finally:
+        cv2.setNumThreads(before)
