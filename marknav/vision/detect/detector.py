@@ -23,6 +23,7 @@ import numpy.typing as npt
 from marknav.vision.detect.arcs import _ArcMarks
 from marknav.vision.detect.base import _Frame
 from marknav.vision.detect.colour import _NO_COLOUR, _diagonal, balance_subsample
+from marknav.vision.detect.faint import chroma_contrast
 from marknav.vision.detect.gate import SearchBuffers, coarse_sample, search_products
 from marknav.vision.detect.geometry import (
     Contour,
@@ -150,8 +151,21 @@ class Detector(_ArcMarks):
         marks = _suppress_duplicates(marks)
         if cfg.reject_glows:
             marks = [m for m in marks if not is_glow(image, m)]
+        if cfg.min_chroma_contrast > 0 and marks:
+            marks = [m for m in marks if not self._faint(image, m)]
         marks.sort(key=lambda m: (-m.radius, m.x, m.y))
         return marks
+
+    def _faint(self, image: U8Array, mark: Mark) -> bool:
+        """Whether ``mark``'s colour hardly stands out from its surroundings (:mod:`.faint`):
+        below ``min_chroma_contrast``, scaled down in scenes darker than ``val_ref_grey``."""
+        cfg = self.config
+        contrast = chroma_contrast(image, mark, self.last_gains)
+        if contrast is None:
+            return False
+        exposure = min(1.0, self.last_grey_level / cfg.val_ref_grey) if cfg.val_ref_grey > 0 \
+            else 1.0
+        return contrast < cfg.min_chroma_contrast * exposure
 
     def _horizon_band(self, height: int, scale: int) -> tuple[float, float] | None:
         """Rows (search resolution) where mark centres may lie, or None without the prior."""

@@ -150,6 +150,11 @@ class DetectorConfig:
     #: Drop glows: round blobs whose core is much brighter than their body (galaxies, lamps;
     #: :mod:`.glow`). A painted mark is flat.
     reject_glows: bool = True
+    #: Drop faint blobs: marks whose colour (white-balanced, grey removed) differs from a ring
+    #: just outside them by less than this many BGR units (:mod:`.faint`; scaled down in scenes
+    #: darker than ``val_ref_grey``). Out-of-focus clutter of a palette hue is round but faint;
+    #: a painted mark is not. 0: off.
+    min_chroma_contrast: float = 44.0
 
     @classmethod
     def for_camera(cls, *, focal_px: float, mark_radius_mm: float, max_range_mm: float,
@@ -189,6 +194,8 @@ class DetectorConfig:
         lo, hi = self.gain_limits
         if not 0 < lo <= 1 <= hi:
             raise ValueError(f"gain_limits must satisfy 0 < low <= 1 <= high, got {lo, hi}")
+        if not self.min_chroma_contrast >= 0.0:
+            raise ValueError(f"min_chroma_contrast must be >= 0, got {self.min_chroma_contrast}")
         if self.tint_limit is not None and not 0.0 <= self.tint_limit <= 1.0:
             raise ValueError(f"tint_limit must be in [0, 1] or None, got {self.tint_limit}")
         for name in ("min_axis_ratio", "circle_ratio", "min_support", "max_continued",
