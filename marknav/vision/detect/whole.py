@@ -207,9 +207,16 @@ class _WholeMarks(_ColourStage):
     def _sector_alpha(self, roi: Mat, local: _Ellipse, back: Mat,
                       mark_bgr: Sequence[float], binary: Mat) -> None:
         """Where the background differs around the mark (a floor below it and a wall above, a
-        board of a near colour behind half of it), ``binary`` is redone per sector of
-        ``_SECTORS`` around the centre, each against its own background's colour: against
-        the mean background, a near-colour board counts as half mark."""
+        board of a near colour beside it), ``binary`` is redone against the backgrounds
+        actually there: the mean colours of ``_SECTORS`` sectors around the centre are the
+        candidates, and each pixel takes its coverage against the candidate of its own sector
+        or the two beside it that explains it best as a mix of the mark's colour and that
+        background (the least distance, grey removed, from the line through the two). Against
+        the mean background a near-colour board counts as half mark; against only its own
+        sector's mean, a sector holding both the board and the wall beside it still reads the
+        board's pixels there as mark (composite frame 32: a small blue mark beside a violet
+        board was lost). Neighbours only: backgrounds from across the mark would explain some
+        clutter's pixels too (a blue patch between a jersey's red stripes became a mark)."""
         if not _quadrants_differ(roi, local, back):
             return
         ys, xs = np.nonzero(back)
@@ -228,30 +235,38 @@ class _WholeMarks(_ColourStage):
         diff = chroma[:, None, :] - chroma[None, :, :]
         if float(np.max(np.einsum("ijk,ijk->ij", diff, diff))) < _SECTOR_SPREAD ** 2:
             return
-        # Each known sector's coverage transform (:meth:`_alpha_transform`, all sectors at
-        # once), applied to its own pixels in one pass: 255·α = w·BGR + offset per pixel, on
-        # where it rounds past 127 (as the threshold of cv2.transform's rounded output).
+        # Per candidate background b (grey removed: chroma c_b) and the mark's direction
+        # d = c_m - c_b: the coverage α = <c_p - c_b, d>/|d|², linear in the pixel, and the
+        # squared distance from the line, |c_p - c_b|² - α²|d|², which up to the pixel's own
+        # |c_p|² (the same for every candidate) is |c_b|² - 2<p, c_b> - α²|d|².
         d = np.asarray(mark_bgr[:3], np.float64)[None, :] - means
         d -= d.mean(axis=1, keepdims=True)
         n2 = np.einsum("ij,ij->i", d, d)
         contrast = n2 >= _MIN_CONTRAST ** 2
         if not contrast.any():
             return
-        wts = d[contrast] * (255.0 / n2[contrast])[:, None]
-        table = np.zeros((_SECTORS, 4), np.float32)
-        rows = np.flatnonzero(known)[contrast]
-        table[rows, :3] = wts
-        table[rows, 3] = -np.einsum("ij,ij->i", wts, means[contrast])
-        valid = np.zeros(_SECTORS, bool)
-        valid[rows] = True
+        d, n2, c_b = d[contrast], n2[contrast], chroma[contrast]
+        wts = d / n2[:, None]  # α = p·w + offset
+        offset = -np.einsum("ij,ij->i", wts, means[contrast])
         h, w = roi.shape[:2]
+        pixels = roi.reshape(-1, 3).astype(np.float32)
+        linear = pixels @ np.concatenate([wts, c_b]).T.astype(np.float32)  # (pixels, 2k)
+        k = len(n2)
+        alpha = linear[:, :k] + offset.astype(np.float32)
+        dist = (np.einsum("ij,ij->i", c_b, c_b).astype(np.float32) - 2.0 * linear[:, k:]
+                - alpha * alpha * n2.astype(np.float32))
+        # Only the backgrounds of the pixel's own sector and its two neighbours compete.
+        rows = np.flatnonzero(known)[contrast]
         sector = _sector_of(np.arange(w, dtype=np.float64)[None, :] - local.cx,
-                            np.arange(h, dtype=np.float64)[:, None] - local.cy)
-        weights = table[sector]
-        pixels_f = roi.astype(np.float32)
-        value = np.einsum("ijk,ijk->ij", pixels_f, weights[:, :, :3]) + weights[:, :, 3]
-        np.copyto(binary, np.where(value >= 127.5, 255, 0).astype(np.uint8),
-                  where=valid[sector])
+                            np.arange(h, dtype=np.float64)[:, None] - local.cy).ravel()
+        apart = np.abs((sector[:, None] - rows[None, :] + _SECTORS // 2) % _SECTORS
+                       - _SECTORS // 2)
+        dist[apart > 1] = np.inf
+        best = np.argmin(dist, axis=1)
+        usable = np.isfinite(dist[np.arange(len(best)), best])
+        chosen = alpha[np.arange(len(best)), best]
+        np.copyto(binary, np.where(chosen >= 127.5 / 255.0, 255, 0).astype(np.uint8)
+                  .reshape(h, w), where=usable.reshape(h, w))
 
 
 def _quadrants_differ(roi: Mat, local: _Ellipse, back: Mat) -> bool:
