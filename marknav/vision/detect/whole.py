@@ -186,7 +186,7 @@ class _WholeMarks(_ColourStage):
         if transform is None:
             return None
         binary = cv2.threshold(cv2.transform(roi, transform), 127, 255, cv2.THRESH_BINARY)[1]
-        self._sector_alpha(roi, local, back, mark_bgr, binary)
+        self._sector_alpha(roi, local, back, mark_bgr, binary, (domain, inner))
         cv2.bitwise_and(binary, domain, dst=binary)
         cv2.bitwise_or(binary, inner, dst=binary)
         if bridge_px > 0:
@@ -205,7 +205,8 @@ class _WholeMarks(_ColourStage):
         return _Measured(out, error, (mark_bgr[0], mark_bgr[1], mark_bgr[2]))
 
     def _sector_alpha(self, roi: Mat, local: _Ellipse, back: Mat,
-                      mark_bgr: Sequence[float], binary: Mat) -> None:
+                      mark_bgr: Sequence[float], binary: Mat,
+                      band: tuple[Mat, Mat]) -> None:
         """Where the background differs around the mark (a floor below it and a wall above, a
         board of a near colour beside it), ``binary`` is redone against the backgrounds
         actually there: the mean colours of ``_SECTORS`` sectors around the centre are the
@@ -216,7 +217,9 @@ class _WholeMarks(_ColourStage):
         sector's mean, a sector holding both the board and the wall beside it still reads the
         board's pixels there as mark (composite frame 32: a small blue mark beside a violet
         board was lost). Neighbours only: backgrounds from across the mark would explain some
-        clutter's pixels too (a blue patch between a jersey's red stripes became a mark)."""
+        clutter's pixels too (a blue patch between a jersey's red stripes became a mark).
+        ``band`` (domain, inner): only the pixels inside the domain and outside the inner
+        ellipse are redone, the others the caller decides alone."""
         if not _quadrants_differ(roi, local, back):
             return
         ys, xs = np.nonzero(back)
@@ -248,8 +251,12 @@ class _WholeMarks(_ColourStage):
         d, n2, c_b = d[contrast], n2[contrast], chroma[contrast]
         wts = d / n2[:, None]  # α = p·w + offset
         offset = -np.einsum("ij,ij->i", wts, means[contrast])
-        h, w = roi.shape[:2]
-        pixels = roi.reshape(-1, 3).astype(np.float32)
+        w = roi.shape[1]
+        domain, inner = band
+        where = np.flatnonzero((domain > inner).ravel())  # in the domain, not in the inner
+        if len(where) == 0:
+            return
+        pixels = roi.reshape(-1, 3)[where].astype(np.float32)
         linear = pixels @ np.concatenate([wts, c_b]).T.astype(np.float32)  # (pixels, 2k)
         k = len(n2)
         alpha = linear[:, :k] + offset.astype(np.float32)
@@ -257,16 +264,14 @@ class _WholeMarks(_ColourStage):
                 - alpha * alpha * n2.astype(np.float32))
         # Only the backgrounds of the pixel's own sector and its two neighbours compete.
         rows = np.flatnonzero(known)[contrast]
-        sector = _sector_of(np.arange(w, dtype=np.float64)[None, :] - local.cx,
-                            np.arange(h, dtype=np.float64)[:, None] - local.cy).ravel()
+        sector = _sector_of(where % w - local.cx, where // w - local.cy)
         apart = np.abs((sector[:, None] - rows[None, :] + _SECTORS // 2) % _SECTORS
                        - _SECTORS // 2)
         dist[apart > 1] = np.inf
         best = np.argmin(dist, axis=1)
         usable = np.isfinite(dist[np.arange(len(best)), best])
         chosen = alpha[np.arange(len(best)), best]
-        np.copyto(binary, np.where(chosen >= 127.5 / 255.0, 255, 0).astype(np.uint8)
-                  .reshape(h, w), where=usable.reshape(h, w))
+        np.put(binary, where[usable], np.where(chosen[usable] >= 127.5 / 255.0, 255, 0))
 
 
 def _quadrants_differ(roi: Mat, local: _Ellipse, back: Mat) -> bool:
