@@ -355,6 +355,23 @@ def test_a_partly_hidden_mark() -> None:
     assert (mark.x, mark.y, mark.radius) == pytest.approx((150.0, 120.0, 50.0), abs=0.75)
 
 
+@pytest.mark.parametrize(("angle", "dy", "colour"), [
+    (-10.0, -8.0, GREEN), (10.0, -10.0, BLUE), (10.0, -8.0, GREEN), (-20.0, -12.0, RED),
+    (20.0, -10.0, RED)])
+def test_a_mark_under_a_slanted_bar(angle: float, dy: float, colour: ColourRange) -> None:
+    """A slightly elliptic mark (19 × 16.6 px) whose top a grey bar hides, the bar tilted (a
+    shelf, a board's edge; composite frame 21 of ``marknav bench vision``). The bar's straight
+    edge across the mark is split into several short edges of the outline's convex hull, and
+    was fitted as part of the mark's arc (its rms just over the limit: the mark was lost). A
+    straight stretch of the hull longer than the mark's flattest part is an occluder's edge."""
+    big = canvas(240, 320)
+    disc(big, 160.0, 120.0, 19.0, bgr(colour.centre_hue), b=16.6)
+    polygon(big, rect(160.0, 114.0 + dy, 70.0, 12.0, angle), (140.0, 135.0, 130.0))
+    mark = only(Detector((colour,)).detect(finish(big)), colour.name)
+    assert mark.x == pytest.approx(160.0, abs=1.5)
+    assert mark.radius == pytest.approx(19.0, abs=0.6)
+
+
 def test_a_sliver_at_the_edge_is_not_a_mark() -> None:
     big = canvas(240, 320)
     disc(big, -26.0, 120.0, 30.0, bgr(GREEN.centre_hue))  # 4 px of it in the image

@@ -47,6 +47,10 @@ def _mean_abs(values: FloatArray) -> float:
     return float(np.abs(values).sum()) / len(values)
 
 
+#: The flattest outline a partial mark is allowed before a straight stretch of it counts as an
+#: occluder's edge: that of an ellipse of this axis ratio about its hull's equivalent radius.
+_STRAIGHT_AXIS_RATIO = 0.7
+
 _COS_36 = np.cos(np.arange(36) * (2.0 * math.pi / 36))
 _SIN_36 = np.sin(np.arange(36) * (2.0 * math.pi / 36))
 
@@ -249,7 +253,12 @@ class _ArcMarks(_WholeMarks):
             lengths = np.sqrt(np.einsum("ij,ij->i", step, step))
             spans = (nxt - hull) % n
             bad = (lengths > long_edge) | (spans > 1.4 * lengths + 3)
-            for i, j in zip(hull[bad].tolist(), nxt[bad].tolist(), strict=True):
+            cuts = list(zip(hull[bad].tolist(), nxt[bad].tolist(), strict=True))
+            # The radius its outline may curve with: a mark cut by the image edge or hidden
+            # in part covers less area than its radius says, not less extent.
+            extent = 0.5 * float(max(np.ptp(pts[:, 0]), np.ptp(pts[:, 1])))
+            cuts += _straight_stretches(pts, hull, max(r_est, extent) / _STRAIGHT_AXIS_RATIO)
+            for i, j in cuts:
                 if j > i:
                     keep[i + 1:j] = False
                 else:
@@ -405,3 +414,37 @@ class _ArcMarks(_WholeMarks):
             return 0.0
         covered = cv2.bitwise_and(disc, _paste((binary, win.x0, win.y0), x0, y0, disc.shape))
         return cv2.countNonZero(covered) / inside
+
+
+def _straight_stretches(pts: FloatArray, hull: npt.NDArray[np.intp],
+                        r_max: float) -> list[tuple[int, int]]:
+    """Contour index pairs (i, j) of straight stretches of a convex hull (sorted indices
+    ``hull`` into ``pts``) longer than the flattest part of a curve of radius ``r_max`` (all in
+    the contour's own pixels): an occluder's edge across a mark (a pole, a board's corner),
+    which digitisation splits into several short hull edges that each pass the long-edge test.
+    The hull is simplified to 0.75 px and measured as the whole path's straight-cut test
+    measures a whole mark's (:func:`~marknav.vision.detect.geometry._flat_stretch`)."""
+    if len(hull) < 4:
+        return []
+    corners = pts[hull]
+    simple = cv2.approxPolyDP(corners.astype(np.float32).reshape(-1, 1, 2), 0.75,
+                              True).reshape(-1, 2)
+    if len(simple) < 3:
+        return []
+    index = {(float(x), float(y)): int(i) for (x, y), i in zip(corners.tolist(), hull.tolist(),
+                                                                strict=True)}
+    verts = [index.get((float(x), float(y))) for x, y in simple.tolist()]
+    if any(v is None for v in verts):
+        return []
+    limit = 3.0 * math.sqrt(max(r_max, 1.0)) + 2.0
+    n = len(pts)
+    out: list[tuple[int, int]] = []
+    for a, b, (xa, ya), (xb, yb) in zip(verts, verts[1:] + verts[:1], simple.tolist(),
+                                        simple[np.r_[1:len(simple), 0]].tolist(), strict=True):
+        length = math.hypot(xb - xa, yb - ya)
+        # The contour must run along the stretch (about a point per pixel): a hull edge over
+        # a concave join (touching marks) is the long-edge test's, and the tangent it
+        # continues along the marks' outlines is no occluder's edge.
+        if length > limit and (int(b) - int(a)) % n <= 1.2 * length + 2:
+            out.append((int(a), int(b)))
+    return out
