@@ -257,7 +257,8 @@ class _ArcMarks(_WholeMarks):
             # The radius its outline may curve with: a mark cut by the image edge or hidden
             # in part covers less area than its radius says, not less extent.
             extent = 0.5 * float(max(np.ptp(pts[:, 0]), np.ptp(pts[:, 1])))
-            cuts += _straight_stretches(pts, hull, max(r_est, extent) / _STRAIGHT_AXIS_RATIO)
+            cuts += _straight_stretches(pts, hull.astype(np.intp),
+                                        max(r_est, extent) / _STRAIGHT_AXIS_RATIO)
             for i, j in cuts:
                 if j > i:
                     keep[i + 1:j] = False
@@ -433,8 +434,9 @@ def _straight_stretches(pts: FloatArray, hull: npt.NDArray[np.intp],
         return []
     index = {(float(x), float(y)): int(i) for (x, y), i in zip(corners.tolist(), hull.tolist(),
                                                                 strict=True)}
-    verts = [index.get((float(x), float(y))) for x, y in simple.tolist()]
-    if any(v is None for v in verts):
+    found = [index.get((float(x), float(y))) for x, y in simple.tolist()]
+    verts = [v for v in found if v is not None]
+    if len(verts) < len(found):
         return []
     limit = 3.0 * math.sqrt(max(r_max, 1.0)) + 2.0
     n = len(pts)
@@ -445,6 +447,6 @@ def _straight_stretches(pts: FloatArray, hull: npt.NDArray[np.intp],
         # The contour must run along the stretch (about a point per pixel): a hull edge over
         # a concave join (touching marks) is the long-edge test's, and the tangent it
         # continues along the marks' outlines is no occluder's edge.
-        if length > limit and (int(b) - int(a)) % n <= 1.2 * length + 2:
-            out.append((int(a), int(b)))
+        if length > limit and (b - a) % n <= 1.2 * length + 2:
+            out.append((a, b))
     return out
