@@ -429,24 +429,26 @@ def _straight_stretches(pts: FloatArray, hull: npt.NDArray[np.intp],
         return []
     corners = pts[hull]
     simple = cv2.approxPolyDP(corners.astype(np.float32).reshape(-1, 1, 2), 0.75,
-                              True).reshape(-1, 2)
+                              True).reshape(-1, 2).astype(np.float64)
     if len(simple) < 3:
         return []
-    index = {(float(x), float(y)): int(i) for (x, y), i in zip(corners.tolist(), hull.tolist(),
-                                                                strict=True)}
-    found = [index.get((float(x), float(y))) for x, y in simple.tolist()]
-    verts = [v for v in found if v is not None]
-    if len(verts) < len(found):
-        return []
     limit = 3.0 * math.sqrt(max(r_max, 1.0)) + 2.0
-    n = len(pts)
-    out: list[tuple[int, int]] = []
-    for a, b, (xa, ya), (xb, yb) in zip(verts, verts[1:] + verts[:1], simple.tolist(),
-                                        simple[np.r_[1:len(simple), 0]].tolist(), strict=True):
-        length = math.hypot(xb - xa, yb - ya)
-        # The contour must run along the stretch (about a point per pixel): a hull edge over
-        # a concave join (touching marks) is the long-edge test's, and the tangent it
-        # continues along the marks' outlines is no occluder's edge.
-        if length > limit and (b - a) % n <= 1.2 * length + 2:
-            out.append((a, b))
-    return out
+    step = np.roll(simple, -1, axis=0) - simple
+    length = np.sqrt(np.einsum("ij,ij->i", step, step))
+    if not (length > limit).any():
+        return []
+    # The simplified hull's corners are some of the hull's points (integer coordinates): their
+    # contour indices through one sorted lookup.
+    keys = corners[:, 0] * 65536.0 + corners[:, 1]
+    order = np.argsort(keys)
+    wanted = simple[:, 0] * 65536.0 + simple[:, 1]
+    at = np.minimum(np.searchsorted(keys[order], wanted), len(keys) - 1)
+    if not np.array_equal(keys[order][at], wanted):
+        return []
+    verts = hull[order[at]]
+    nxt = np.roll(verts, -1)
+    # The contour must run along the stretch (about a point per pixel): a hull edge over a
+    # concave join (touching marks) is the long-edge test's, and the tangent it continues
+    # along the marks' outlines is no occluder's edge.
+    straight = (length > limit) & ((nxt - verts) % len(pts) <= 1.2 * length + 2)
+    return list(zip(verts[straight].tolist(), nxt[straight].tolist(), strict=True))
