@@ -175,6 +175,22 @@ def test_a_small_mark_beside_a_near_colour_board_is_measured_against_the_board()
     assert blue.radius == pytest.approx(12.68, rel=0.03)
 
 
+def test_a_mark_against_a_board_of_its_palette_colour_with_a_pole_across_it() -> None:
+    """Composite frame 44 (cropped): a blue mark (hue 115) with a violet board (hue 130, inside
+    blue's range after the white balance) behind its left half and a lavender pole across it.
+    The blob holds two hue clusters of one palette colour; the mark's cluster was cut out, but
+    its readings still took the board's pixels for the mark going on past its outline
+    ("continued" 0.46, and the search-resolution arc test's colour beyond the outline), and the
+    mark was lost. The other cluster's pixels are another object now: found, within 1 px."""
+    path = Path(__file__).resolve().parents[1] / "data" / "composite-frames" / \
+        "board-pole-blue-messi.png"
+    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    assert image is not None
+    (blue,) = [m for m in Detector(PALETTE).detect(image) if m.colour == "blue"]
+    assert math.hypot(blue.x - 95.76, blue.y - 95.88) < 1.0
+    assert blue.radius == pytest.approx(38.8, abs=1.0)
+
+
 def _faint_and_vivid() -> np.ndarray:
     """A grey wall with a dark, slightly blue disc (hue and saturation of the palette's blue,
     S ≈ 110, but little colour: a shadowed patch) and a vivid red one."""
@@ -215,8 +231,9 @@ def test_a_faint_round_blob_of_a_palette_hue_is_not_a_mark_a_vivid_one_is() -> N
 
 
 def test_the_blurred_crowd_of_messi5_gives_fewer_marks() -> None:
-    """``tests/data/real/messi5.jpg`` at 640 px: four out-of-focus shirts and a jersey patch of
-    the palette's hues came out as marks (two thirds of the corpus's false marks). The two
+    """``tests/data/real/messi5.jpg`` at 640 px: out-of-focus shirts and a jersey patch of the
+    palette's hues came out as marks (four of them, two thirds of the corpus's false marks,
+    before a blob's other hue clusters counted as other objects; three since). The two
     faintest (chroma 25 and 33 against 44) are dropped."""
     from marknav.vision.detect.faint import chroma_contrast
 
@@ -228,7 +245,7 @@ def test_the_blurred_crowd_of_messi5_gives_fewer_marks() -> None:
                        interpolation=cv2.INTER_AREA)
     loose = Detector(PALETTE, DetectorConfig(min_chroma_contrast=0.0))
     everything = loose.detect(small)
-    assert len(everything) >= 4, everything
+    assert len(everything) >= 3, everything
     detector = Detector(PALETTE)
     kept = detector.detect(small)
     assert len(kept) <= len(everything) - 2, kept

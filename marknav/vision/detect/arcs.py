@@ -51,6 +51,10 @@ def _mean_abs(values: FloatArray) -> float:
 #: occluder's edge: that of an ellipse of this axis ratio about its hull's equivalent radius.
 _STRAIGHT_AXIS_RATIO = 0.7
 
+#: A window's label for pixels of a palette colour's other hue cluster (:attr:`_Frame.hue_keep`):
+#: neither background nor any palette colour's.
+_OTHER = _NO_COLOUR - 1
+
 _COS_36 = np.cos(np.arange(36) * (2.0 * math.pi / 36))
 _SIN_36 = np.sin(np.arange(36) * (2.0 * math.pi / 36))
 
@@ -105,9 +109,13 @@ class _ArcMarks(_WholeMarks):
             if not inside.any():
                 continue
             xo, yo, xi, yi = xo[inside], yo[inside], xi[inside], yi[inside]
-            label_out = self._hue_lut[frame.hsv[yo, xo, 0]]
+            hue_out = frame.hsv[yo, xo, 0]
+            label_out = self._hue_lut[hue_out]
             label_in = self._hue_lut[frame.hsv[yi, xi, 0]]
-            beyond = np.count_nonzero((frame.mask[yo, xo] > 0) & (label_out == label_in))
+            same = (frame.mask[yo, xo] > 0) & (label_out == label_in)
+            if frame.hue_keep is not None:
+                same &= frame.hue_keep[hue_out] > 0
+            beyond = np.count_nonzero(same)
             if beyond <= 0.25 * len(xo):
                 return True
         return False
@@ -138,7 +146,11 @@ class _ArcMarks(_WholeMarks):
         k = 2 * pad + 1
         cv2.dilate(blob, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)), dst=blob)
         cv2.bitwise_and(coloured, blob, dst=coloured)
-        labels = cv2.LUT(np.ascontiguousarray(hsv[:, :, 0]), self._hue_lut)
+        hue = np.ascontiguousarray(hsv[:, :, 0])
+        labels = cv2.LUT(hue, self._hue_lut)
+        if frame.hue_keep is not None:
+            # Another hue cluster's pixels: another object (:attr:`_Frame.hue_keep`).
+            labels[cv2.LUT(hue, frame.hue_keep) == 0] = _OTHER
         labels[coloured == 0] = _NO_COLOUR
         return _Window(x0, y0, bgr, labels, blob)
 
@@ -161,7 +173,8 @@ class _ArcMarks(_WholeMarks):
         min_area = 0.4 * math.pi * cfg.min_radius ** 2
         marks: list[Mark] = []
         for k in colours:
-            own = cv2.bitwise_not(background) if merged else cv2.inRange(labels, k, k)
+            own = cv2.bitwise_not(cv2.bitwise_or(background, cv2.inRange(labels, _OTHER, _OTHER))) \
+                if merged else cv2.inRange(labels, k, k)
             core = cv2.erode(own, self._kernel3)
             if cv2.countNonZero(core) < min_area:
                 continue
@@ -172,8 +185,7 @@ class _ArcMarks(_WholeMarks):
             # Pixels of the other palette colours are not this mark; blob pixels of this colour
             # below the mid-level (a highlight) are.
             others = cv2.bitwise_xor(cv2.bitwise_not(background), own)
-            if not merged:  # (merged: no other colours)
-                alpha[others > 0] = 0
+            alpha[others > 0] = 0
             binary = cv2.threshold(alpha, 127, 255, cv2.THRESH_BINARY)[1]
             cv2.bitwise_and(binary, win.blob, dst=binary)
             cv2.bitwise_or(binary, core, dst=binary)

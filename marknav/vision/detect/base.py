@@ -29,6 +29,10 @@ class _Frame:
     sy: float
     balance: npt.NDArray[np.float32] | None  # 3×3 white-balance matrix, None when identity
     v_floor: int
+    #: A hue cluster's part of a blob (:meth:`Detector._split_hues`): 256 entries, 0 for the
+    #: hues of the blob's other clusters. Pixels of those hues are another object (a board of a
+    #: near colour inside the mark's palette range), not the mark going on. None: every hue.
+    hue_keep: Mat | None = None
 
 
 class _DetectorBase:

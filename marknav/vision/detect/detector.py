@@ -275,6 +275,11 @@ class Detector(_ArcMarks):
         clusters = cv2.LUT(hue, lut)
         marks: list[Mark] = []
         for k in range(len(peaks)):
+            # The other clusters' hues are another object for this part's readings (a board
+            # of a near colour behind the mark is not the mark going on past its outline).
+            keep = np.where(lut == k, 255, 0).astype(np.uint8)
+            keep[HUE_MAX:] = 0
+            part_frame = dataclasses.replace(frame, hue_keep=keep)
             own = cv2.bitwise_and(cv2.inRange(clusters, k, k), region)
             own = cv2.morphologyEx(own, cv2.MORPH_OPEN, self._kernel3)
             parts, _ = cv2.findContours(own, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
@@ -284,7 +289,7 @@ class Detector(_ArcMarks):
                 part_area = cv2.contourArea(part)
                 if len(part) < 6 or part_area < min_area or part_area > 0.97 * area:
                     continue
-                found.extend(self._blob(frame, part, part_area))
+                found.extend(self._blob(part_frame, part, part_area))
             if cfg.bridge_px > 0 and len(parts) >= 2:
                 # The cluster's pieces may be one mark cut by a thin occluder (a mark against
                 # a region of another palette colour, a pole across it).
