@@ -268,7 +268,7 @@ class _ArcMarks(_WholeMarks):
             cuts = list(zip(hull[bad].tolist(), nxt[bad].tolist(), strict=True))
             # The radius its outline may curve with: a mark cut by the image edge or hidden
             # in part covers less area than its radius says, not less extent.
-            extent = 0.5 * float(max(np.ptp(pts[:, 0]), np.ptp(pts[:, 1])))
+            extent = 0.5 * float((pts.max(axis=0) - pts.min(axis=0)).max())
             cuts += _straight_stretches(pts, hull.astype(np.intp),
                                         max(r_est, extent) / _STRAIGHT_AXIS_RATIO)
             for i, j in cuts:
@@ -445,9 +445,10 @@ def _straight_stretches(pts: FloatArray, hull: npt.NDArray[np.intp],
     if len(simple) < 3:
         return []
     limit = 3.0 * math.sqrt(max(r_max, 1.0)) + 2.0
-    step = np.roll(simple, -1, axis=0) - simple
+    closed = np.concatenate((simple, simple[:1]))
+    step = closed[1:] - closed[:-1]
     length = np.sqrt(np.einsum("ij,ij->i", step, step))
-    if not (length > limit).any():
+    if float(length.max()) <= limit:
         return []
     # The simplified hull's corners are some of the hull's points (integer coordinates): their
     # contour indices through one sorted lookup.
@@ -458,7 +459,7 @@ def _straight_stretches(pts: FloatArray, hull: npt.NDArray[np.intp],
     if not np.array_equal(keys[order][at], wanted):
         return []
     verts = hull[order[at]]
-    nxt = np.roll(verts, -1)
+    nxt = np.concatenate((verts[1:], verts[:1]))
     # The contour must run along the stretch (about a point per pixel): a hull edge over a
     # concave join (touching marks) is the long-edge test's, and the tangent it continues
     # along the marks' outlines is no occluder's edge.

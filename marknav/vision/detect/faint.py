@@ -28,7 +28,7 @@ import cv2
 import numpy as np
 
 from marknav.vision.detect.geometry import U8Array
-from marknav.vision.detect.glow import _ellipse_mask
+from marknav.vision.detect.glow import _ellipse_into, _ellipse_mask
 from marknav.vision.detect.model import Mark
 
 __all__ = ["chroma_contrast"]
@@ -54,14 +54,13 @@ def chroma_contrast(image: U8Array, mark: Mark, gains: Sequence[float]) -> float
     # means need no more, and the cost stays that of a small mark. The ring stays ≥ 1 sample
     # wide.
     k = max(1, min(int(a // 10), int((_RING_TO - _RING_FROM) // 1)))
-    roi = np.ascontiguousarray(image[y0:y1:k, x0:x1:k])
+    roi = image[y0:y1, x0:x1] if k == 1 else np.ascontiguousarray(image[y0:y1:k, x0:x1:k])
     shape = roi.shape[:2]
     cx, cy = (mark.x - x0) / k, (mark.y - y0) / k
     inside = _ellipse_mask(shape, cx, cy, _INSIDE * a / k, _INSIDE * b / k, mark.angle_deg)
     ring = _ellipse_mask(shape, cx, cy, (a + _RING_TO) / k, (b + _RING_TO) / k, mark.angle_deg)
-    cv2.subtract(ring, _ellipse_mask(shape, cx, cy, (a + _RING_FROM) / k, (b + _RING_FROM) / k,
-                                     mark.angle_deg), dst=ring)
-    if cv2.countNonZero(inside) == 0 or cv2.countNonZero(ring) == 0:
+    _ellipse_into(ring, cx, cy, (a + _RING_FROM) / k, (b + _RING_FROM) / k, mark.angle_deg, 0)
+    if not inside.any() or not ring.any():
         return None
     m_in = cv2.mean(roi, mask=inside)
     m_out = cv2.mean(roi, mask=ring)

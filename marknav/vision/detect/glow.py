@@ -33,12 +33,18 @@ _CORE, _RING_IN, _RING_OUT = 0.35, 0.5, 0.75
 def _ellipse_mask(shape: tuple[int, int], cx: float, cy: float, a: float, b: float,
                   angle_deg: float) -> Mat:
     mask = np.zeros(shape, np.uint8)
+    _ellipse_into(mask, cx, cy, a, b, angle_deg, 255)
+    return mask
+
+
+def _ellipse_into(mask: Mat, cx: float, cy: float, a: float, b: float, angle_deg: float,
+                  value: int) -> None:
+    """Fill an ellipse of ``mask`` with ``value`` (1/16 px precision)."""
     shift = 4
     k = 1 << shift
     cv2.ellipse(mask, (round(cx * k), round(cy * k)),
-                (max(1, round(a * k)), max(1, round(b * k))), angle_deg, 0, 360, 255,
+                (max(1, round(a * k)), max(1, round(b * k))), angle_deg, 0, 360, value,
                 cv2.FILLED, cv2.LINE_8, shift)
-    return mask
 
 
 def glow_ratio(image: U8Array | Mat, mark: Mark) -> float | None:
