@@ -51,6 +51,7 @@ from marknav.missions.registry import (
 )
 from marknav.missions.tree_checks import check_tree
 from marknav.sim.camera_model import SIM_FOCAL_PX, SIM_HEIGHT, SIM_WIDTH
+from marknav.vision.detect import DetectorConfig
 from marknav.vision.detector_setup import ROBOT_TINT_LIMIT
 from marknav.vision.palette import ColourRange, Palette
 from marknav.yamlio import Loc, Position, YamlDocument, load_yaml_file, validation_errors
@@ -282,6 +283,14 @@ class DetectSettings(BaseModel):
         "excess in the greys is a painted wall or carpet, and correcting it moved a yellow mark "
         "to orange. null: plain grey world (a camera with a green tint of its own: better fix "
         "it in the camera).",
+    )
+    min_chroma_contrast: float = Field(
+        default=DetectorConfig.min_chroma_contrast, ge=0, le=255, allow_inf_nan=False,
+        description="Least colour difference (white-balanced BGR units, grey removed) between a "
+        "mark and a ring just outside it, scaled down in scenes darker than a grey level of "
+        "100: fainter round blobs of a palette hue (out-of-focus clutter) are not marks. "
+        "Painted marks measure 108 and more in the simulator, 49 and more composited into "
+        "photographs. 0: off (pale or washed-out marks).",
     )
 
 

@@ -11,6 +11,8 @@ camera model (``camera.detect`` in the mission file).
 - **White balance held to the room's light** (``tint_limit``): the grey-world correction's
   green–magenta part is limited; a room's lights differ along blue–amber, and a strong green or
   magenta cast in its greys is a painted wall or carpet (:attr:`DetectorConfig.tint_limit`).
+- **Faint blobs are not marks** (``min_chroma_contrast``, :mod:`.detect.faint`): a mark's
+  colour must stand out from a ring just outside it.
 
 Frames of another size than the mission's camera (a camera that delivers another mode) get
 their own detector, the focal length and principal point scaled to them.
@@ -46,10 +48,12 @@ ROBOT_TINT_LIMIT = 0.05
 def camera_detector_config(*, width: int, height: int, focal_px: float, mark_radius_mm: float,
                            max_range_mm: float | None, horizon_tolerance_deg: float | None,
                            horizon_row: float | None = None,
-                           tint_limit: float | None = None) -> DetectorConfig:
+                           tint_limit: float | None = None,
+                           min_chroma_contrast: float = DetectorConfig.min_chroma_contrast,
+                           ) -> DetectorConfig:
     """The detector config for a ``width`` × ``height`` camera of focal length ``focal_px``
-    (``horizon_row``: the principal point's row; default the image centre's; ``tint_limit``:
-    :attr:`DetectorConfig.tint_limit`)."""
+    (``horizon_row``: the principal point's row; default the image centre's; ``tint_limit``,
+    ``min_chroma_contrast``: :class:`DetectorConfig`'s)."""
     row, tolerance = None, DetectorConfig.horizon_tolerance_px
     if horizon_tolerance_deg is not None:
         t = math.tan(math.radians(horizon_tolerance_deg))
@@ -57,11 +61,11 @@ def camera_detector_config(*, width: int, height: int, focal_px: float, mark_rad
         tolerance = (focal_px + width / 2.0) * t + HORIZON_SLACK_PX
     if max_range_mm is None:
         return DetectorConfig(horizon_row=row, horizon_tolerance_px=tolerance,
-                              tint_limit=tint_limit)
+                              tint_limit=tint_limit, min_chroma_contrast=min_chroma_contrast)
     return replace(DetectorConfig.for_camera(
         focal_px=focal_px, mark_radius_mm=mark_radius_mm, max_range_mm=max_range_mm,
         floor_px=ROBOT_FLOOR_PX, horizon_row=row, horizon_tolerance_px=tolerance),
-        tint_limit=tint_limit)
+        tint_limit=tint_limit, min_chroma_contrast=min_chroma_contrast)
 
 
 class CameraDetector:
@@ -70,9 +74,11 @@ class CameraDetector:
     def __init__(self, palette: Palette, *, width: int, height: int, focal_px: float,
                  mark_radius_mm: float, max_range_mm: float | None,
                  horizon_tolerance_deg: float | None, horizon_row: float | None = None,
-                 tint_limit: float | None = None) -> None:
+                 tint_limit: float | None = None,
+                 min_chroma_contrast: float = DetectorConfig.min_chroma_contrast) -> None:
         self.palette = palette
         self._tint_limit = tint_limit
+        self._min_chroma_contrast = min_chroma_contrast
         self._camera = (width, height, focal_px, horizon_row)
         self._mark_radius_mm = mark_radius_mm
         self._max_range_mm = max_range_mm
@@ -87,7 +93,8 @@ class CameraDetector:
                    focal_px=cam.focal_px, mark_radius_mm=mission.marks.radius_mm,
                    max_range_mm=cam.detect.max_range_mm,
                    horizon_tolerance_deg=cam.detect.horizon_tolerance_deg,
-                   horizon_row=horizon_row, tint_limit=cam.detect.tint_limit)
+                   horizon_row=horizon_row, tint_limit=cam.detect.tint_limit,
+                   min_chroma_contrast=cam.detect.min_chroma_contrast)
 
     def config_for(self, width: int, height: int) -> DetectorConfig:
         """The config frames of ``width`` × ``height`` are searched with."""
@@ -102,6 +109,7 @@ class CameraDetector:
                 width=width, height=height, focal_px=focal * k,
                 mark_radius_mm=self._mark_radius_mm, max_range_mm=self._max_range_mm,
                 horizon_tolerance_deg=self._tolerance_deg, tint_limit=self._tint_limit,
+                min_chroma_contrast=self._min_chroma_contrast,
                 horizon_row=None if row is None else (row + 0.5) * height / h0 - 0.5)
             detector = self._detectors[(width, height)] = Detector(self.palette, config)
         return detector

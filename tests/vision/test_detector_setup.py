@@ -67,6 +67,27 @@ def test_null_settings_give_the_plain_detector(tmp_path: Path) -> None:
     assert cfg.horizon_row is None and cfg.min_radius == 5.0
 
 
+def test_the_faint_floor_comes_from_the_mission(tmp_path: Path) -> None:
+    """``camera.detect.min_chroma_contrast`` (default 44; 0: off): a dark, slightly blue disc
+    (chroma 23 against its grey wall) is dropped by default and reported with the floor off."""
+    image = np.full((480, 640, 3), 120, np.uint8)
+    cv2.circle(image, (200, 240), 30, (80, 50, 45), -1)
+    cv2.circle(image, (420, 240), 30, (40, 40, 230), -1)
+    palette_yaml = "marks: {radius_mm: 100, colours: {red: {hue: [170, 10], side: left}, " \
+        "blue: {hue: [95, 130], side: right}}}\n"
+    text = MISSION.replace(MISSION.splitlines()[2] + "\n", palette_yaml)
+    found = {}
+    for detect in ("", "  detect: {min_chroma_contrast: 0}\n"):
+        p = tmp_path / "m.yaml"
+        p.write_text(text.replace("DETECT", detect))
+        mission = load_mission(p)
+        found[detect] = sorted(m.colour for m in CameraDetector.for_mission(mission).detect(image))
+        assert CameraDetector.for_mission(mission).config_for(640, 480).min_chroma_contrast == \
+            (0.0 if detect else 44.0)
+    assert found[""] == ["red"]
+    assert found["  detect: {min_chroma_contrast: 0}\n"] == ["blue", "red"]
+
+
 def test_marks_off_the_horizon_and_too_far_are_not_reported(tmp_path: Path) -> None:
     mission = load_mission(_mission(tmp_path, "  detect: {max_range_mm: 6000}\n"))
     image = np.full((480, 640, 3), 128, np.uint8)
@@ -81,6 +102,7 @@ def test_marks_off_the_horizon_and_too_far_are_not_reported(tmp_path: Path) -> N
     ("  detect: {max_range_mm: -5}\n", "6:26: camera.detect.max_range_mm:"),
     ("  detect: {horizon_tolerance_deg: 45}\n", "camera.detect.horizon_tolerance_deg:"),
     ("  detect: {horizon: 3}\n", "camera.detect.horizon:"),
+    ("  detect: {min_chroma_contrast: -3}\n", "6:33: camera.detect.min_chroma_contrast:"),
 ])
 def test_bad_detect_settings_name_the_line_and_field(tmp_path: Path, detect: str, message: str,
                                                      capsys: pytest.CaptureFixture[str]) -> None:
