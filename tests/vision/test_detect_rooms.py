@@ -128,18 +128,39 @@ def test_clipped_highlights_of_an_orange_surface_are_not_white() -> None:
     assert blue[0].radius == pytest.approx(20.0, rel=0.1)
 
 
-def test_no_galaxy_of_the_hubble_deep_field_is_a_mark() -> None:
-    """``tests/data/real/hubble_deep_field.jpg`` at 640 px with a red/green/blue palette: seven
-    small red galaxies came out as marks (half the corpus's false marks). Their cores glow."""
-    path = Path(__file__).resolve().parents[1] / "data" / "real" / "hubble_deep_field.jpg"
+def _photo_at_640(name: str) -> np.ndarray:
+    """``tests/data/real/NAME`` resized to 640 px on its long side (as the corpus's false-mark
+    figure reads it)."""
+    path = Path(__file__).resolve().parents[1] / "data" / "real" / name
     image = cv2.imread(str(path), cv2.IMREAD_COLOR)
     assert image is not None
     s = 640 / max(image.shape[:2])
-    small = cv2.resize(image, (round(image.shape[1] * s), round(image.shape[0] * s)),
-                       interpolation=cv2.INTER_AREA)
+    out: np.ndarray = cv2.resize(image, (round(image.shape[1] * s), round(image.shape[0] * s)),
+                                 interpolation=cv2.INTER_AREA)
+    return out
+
+
+def test_no_galaxy_of_the_hubble_deep_field_is_a_mark() -> None:
+    """``tests/data/real/hubble_deep_field.jpg`` at 640 px with a red/green/blue palette: seven
+    small red galaxies came out as marks (half the corpus's false marks). Their cores glow."""
+    small = _photo_at_640("hubble_deep_field.jpg")
     assert Detector(PALETTE).detect(small) == []
     glows = Detector(PALETTE, DetectorConfig(reject_glows=False)).detect(small)
     assert len(glows) >= 5 and all(is_glow(small, m) for m in glows), glows
+
+
+def _composite_crop(name: str) -> np.ndarray:
+    """A crop of a composited frame of ``marknav bench vision`` (``tests/data/composite-frames``,
+    truth in its README)."""
+    path = Path(__file__).resolve().parents[1] / "data" / "composite-frames" / name
+    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    assert image is not None
+    return image
+
+
+def _only(marks: list[Mark], colour: str) -> Mark:
+    (mark,) = [m for m in marks if m.colour == colour]
+    return mark
 
 
 def test_a_large_shaded_mark_beside_a_board_passes_the_search_image_outline_limit() -> None:
@@ -149,11 +170,8 @@ def test_a_large_shaded_mark_beside_a_board_passes_the_search_image_outline_limi
     limit (0.75). Since each pixel is read against the background that explains it best (not
     its sector's mean, which mixed board and wall), the board's edge no longer counts as half
     mark and the outline passes even 0.65."""
-    path = Path(__file__).resolve().parents[1] / "data" / "composite-frames" / \
-        "board-red-rocket.png"
-    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    assert image is not None
-    (red,) = [m for m in Detector(PALETTE).detect(image) if m.colour == "red"]
+    image = _composite_crop("board-red-rocket.png")
+    red = _only(Detector(PALETTE).detect(image), "red")
     assert math.hypot(red.x - 80.11, red.y - 70.28) < 3.0
     assert red.radius == pytest.approx(34.05, rel=0.03)
     strict = Detector(PALETTE, DetectorConfig(max_search_outline_error=0.65)).detect(image)
@@ -166,11 +184,8 @@ def test_a_small_mark_beside_a_near_colour_board_is_measured_against_the_board()
     sector's mean colour the board's pixels there read as mark, the outline error was 1.0 and
     the mark was lost. Each pixel against the background that explains it best: found, radius
     within 3 %."""
-    path = Path(__file__).resolve().parents[1] / "data" / "composite-frames" / \
-        "board-blue-fruits.png"
-    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    assert image is not None
-    (blue,) = [m for m in Detector(PALETTE).detect(image) if m.colour == "blue"]
+    image = _composite_crop("board-blue-fruits.png")
+    blue = _only(Detector(PALETTE).detect(image), "blue")
     assert math.hypot(blue.x - 59.58, blue.y - 60.06) < 1.0
     assert blue.radius == pytest.approx(12.68, rel=0.03)
 
@@ -182,11 +197,8 @@ def test_a_mark_against_a_board_of_its_palette_colour_with_a_pole_across_it() ->
     its readings still took the board's pixels for the mark going on past its outline
     ("continued" 0.46, and the search-resolution arc test's colour beyond the outline), and the
     mark was lost. The other cluster's pixels are another object now: found, within 1 px."""
-    path = Path(__file__).resolve().parents[1] / "data" / "composite-frames" / \
-        "board-pole-blue-messi.png"
-    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    assert image is not None
-    (blue,) = [m for m in Detector(PALETTE).detect(image) if m.colour == "blue"]
+    image = _composite_crop("board-pole-blue-messi.png")
+    blue = _only(Detector(PALETTE).detect(image), "blue")
     assert math.hypot(blue.x - 95.76, blue.y - 95.88) < 1.0
     assert blue.radius == pytest.approx(38.8, abs=1.0)
 
@@ -237,12 +249,7 @@ def test_the_blurred_crowd_of_messi5_gives_fewer_marks() -> None:
     faintest (chroma 25 and 33 against 44) are dropped."""
     from marknav.vision.detect.faint import chroma_contrast
 
-    path = Path(__file__).resolve().parents[1] / "data" / "real" / "messi5.jpg"
-    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    assert image is not None
-    s = 640 / max(image.shape[:2])
-    small = cv2.resize(image, (round(image.shape[1] * s), round(image.shape[0] * s)),
-                       interpolation=cv2.INTER_AREA)
+    small = _photo_at_640("messi5.jpg")
     loose = Detector(PALETTE, DetectorConfig(min_chroma_contrast=0.0))
     everything = loose.detect(small)
     assert len(everything) >= 3, everything
