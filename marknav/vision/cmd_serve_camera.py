@@ -91,7 +91,12 @@ def run(args: argparse.Namespace) -> int:
                   "/stream.mjpg", file=sys.stderr, flush=True)
         log.info("first frame %dx%d, %d bytes of JPEG at quality %d", first.width,
                  first.height, len(first.jpeg), args.quality)
-        server.serve_forever()
+        # The server runs on its own thread and this one waits: a signal's KeyboardInterrupt
+        # then never lands inside the server's accept step, where socketserver shuts down the
+        # connection it was handing to a new thread (a stream cut without its closing boundary,
+        # seen under load when SIGTERM came right after a client connected).
+        server.start()
+        server.wait()
         return 0
     finally:
         if server is not None:

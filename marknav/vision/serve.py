@@ -558,6 +558,7 @@ class MjpegServer:
             raise InputError(f"cannot listen on {host}:{port}: {why}", field="--port") from None
         self.port: int = int(self._httpd.server_address[1])
         self._thread: threading.Thread | None = None
+        self._error: BaseException | None = None
 
     @property
     def base_url(self) -> str:
@@ -582,14 +583,36 @@ class MjpegServer:
         return self._httpd.streams_served
 
     def serve_forever(self, poll_interval: float = 0.2) -> None:
+        """Serve on the calling thread until :meth:`close` (from another thread). A signal's
+        exception raised here can land inside the server's accept step and cut the connection it
+        was handing to a new thread: a process that stops on a signal serves with :meth:`start`
+        and :meth:`wait` instead (``marknav serve-camera``)."""
         self._httpd.serve_forever(poll_interval)
 
     def start(self) -> MjpegServer:
-        """Serve on a background thread (for tests and embedding)."""
-        self._thread = threading.Thread(target=self.serve_forever, name="mjpeg-http",
-                                        daemon=True)
+        """Serve on a background thread (the command, tests, embedding); :meth:`wait` for it."""
+
+        def serve() -> None:
+            try:
+                self.serve_forever()
+            except BaseException as exc:  # handed to wait(), in the thread that waits
+                self._error = exc
+
+        self._error = None
+        self._thread = threading.Thread(target=serve, name="mjpeg-http", daemon=True)
         self._thread.start()
         return self
+
+    def wait(self, poll_s: float = 0.5) -> None:
+        """Block until the background server (:meth:`start`) stops; an exception that stopped
+        it is raised here. Signals interrupt the wait (the join is polled), so Ctrl-C and SIGTERM
+        raise here, in the waiting thread, and never inside the server's own accept step."""
+        thread = self._thread
+        while thread is not None and thread.is_alive():
+            thread.join(timeout=poll_s)
+        error, self._error = self._error, None
+        if error is not None:
+            raise error
 
     def close(self) -> None:
         """Stop accepting, end every stream (the streamer is closed too), free the port."""
@@ -602,8 +625,9 @@ class MjpegServer:
         while self.clients > 0 and time.monotonic() < deadline:
             time.sleep(0.01)
         if self._thread is not None:
-            self._httpd.shutdown()
-            self._thread.join(timeout=2.0)
+            if self._thread.is_alive():  # (shutdown() would wait for ever on a dead loop)
+                self._httpd.shutdown()
+                self._thread.join(timeout=2.0)
             self._thread = None
         with contextlib.suppress(OSError):
             self._httpd.server_close()

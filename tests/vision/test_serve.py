@@ -445,6 +445,31 @@ def test_exposed_host_warns_and_interrupt_exits_130(
     assert err.endswith("marknav serve-camera: interrupted\n")
 
 
+def test_wait_raises_what_stopped_the_server_and_close_does_not_hang(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """``marknav serve-camera`` serves on a background thread and waits (a signal landing in
+    socketserver's accept step shut down the connection it was handing over: a stream cut
+    without its closing boundary, seen under load). What stops the serving thread is raised in
+    the waiting one, and closing a server whose loop died returns at once."""
+
+    def broken(self: MjpegServer, poll_interval: float = 0.2) -> None:
+        raise RuntimeError("the loop broke")
+
+    monkeypatch.setattr(MjpegServer, "serve_forever", broken)
+    streamer = CameraStreamer(lambda: open_source(str(SMARTIES)), name=str(SMARTIES),
+                              live=False, fps=30)
+    streamer.start(first_frame_timeout_s=3.0)
+    server = MjpegServer(streamer, host="127.0.0.1", port=0).start()
+    try:
+        with pytest.raises(RuntimeError, match="the loop broke"):
+            server.wait(poll_s=0.05)
+        server.wait(poll_s=0.05)  # raised once: waiting again returns
+    finally:
+        t0 = time.monotonic()
+        server.close()
+        assert time.monotonic() - t0 < 5.0
+
+
 def test_serve_camera_command_end_to_end() -> None:
     proc = subprocess.Popen(
         [sys.executable, "-m", "marknav", "serve-camera", "--camera", str(SMARTIES),
