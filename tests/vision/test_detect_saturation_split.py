@@ -48,3 +48,22 @@ def test_a_floor_a_little_paler_than_the_mark_is_not_cut() -> None:
     image = hsv_scene(210)
     marks = Detector((GREEN,)).detect(image)
     assert all(m.radius < 60 for m in marks)
+
+
+@pytest.mark.parametrize(("floor_sat", "value"), [(170, 160), (180, 160), (180, 200)])
+def test_a_mark_cut_out_by_saturation_is_not_taken_for_a_faint_blob(floor_sat: int,
+                                                                     value: int) -> None:
+    """A green disc lying on a green floor as bright as itself (S 250 against 170-180): its
+    colour differs from the floor's by chroma 36-45, under the faint test's 44, but the cut by
+    saturation has measured the gap that sets it apart; it stays a mark."""
+    rng = np.random.default_rng(0)
+    hsv = np.zeros((480, 640, 3), np.uint8)
+    hsv[:, :] = (0, 0, 150)
+    hsv[240:, :] = (60, floor_sat, value)
+    cv2.circle(hsv, (320, 330), 22, (60, 250, value), -1, lineType=cv2.LINE_AA)
+    bgr = cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR)
+    image = np.clip(bgr.astype(np.float64) + rng.normal(0.0, 1.5, bgr.shape), 0, 255
+                    ).astype(np.uint8)
+    (mark,) = [m for m in Detector((GREEN,)).detect(image) if m.colour == "green"]
+    assert abs(mark.x - 320) < 0.2 * 22 and abs(mark.y - 330) < 0.2 * 22
+    assert abs(mark.radius - 22) < 0.15 * 22

@@ -40,6 +40,10 @@ from marknav.vision.palette import DEFAULT_PALETTE, HUE_MAX, Palette
 
 __all__ = ["Detector", "detect_marks"]
 
+#: The share of ``min_chroma_contrast`` a mark cut out of a floor of its own hue by saturation
+#: must reach (the cut has measured a saturation gap; the colour difference is small).
+_SATURATION_CUT_SHARE = 2.0 / 3.0
+
 
 class Detector(_ArcMarks):
     """Finds palette-coloured circular/elliptical marks in BGR frames.
@@ -122,6 +126,11 @@ class Detector(_ArcMarks):
         min_area = 0.4 * math.pi * (cfg.min_radius / scale) ** 2
         band = self._horizon_band(h, scale)
         marks: list[Mark] = []
+        # Marks cut out by saturation stand apart from a floor of their own hue by a saturation
+        # gap the cut has measured (>= split_saturation_gap); their colour difference to it is
+        # small (a green disc on a green carpet: chroma 36-41 at floor S 170-180): the faint test
+        # holds them to two thirds of its floor (small clutter the cut finds measures 17-24).
+        by_saturation: set[int] = set()
         for contour in contours:
             if len(contour) < 6:
                 continue
@@ -139,7 +148,9 @@ class Detector(_ArcMarks):
                 if cfg.split_colours:
                     found = self._split_hues(frame, contour, area, min_area)
                 if cfg.split_saturation_gap > 0:
-                    found = found + self._split_saturation(frame, contour, area, min_area)
+                    cut = self._split_saturation(frame, contour, area, min_area)
+                    by_saturation.update(id(m) for m in cut)
+                    found = found + cut
             marks.extend(found)
         if cfg.bridge_px > 0 and len(contours) >= 2:
             # Any blobs may be pieces of a mark cut by a thin occluder (a piece can give a
@@ -152,20 +163,23 @@ class Detector(_ArcMarks):
         if cfg.reject_glows:
             marks = [m for m in marks if not is_glow(image, m)]
         if cfg.min_chroma_contrast > 0 and marks:
-            marks = [m for m in marks if not self._faint(image, m)]
+            marks = [m for m in marks
+                     if not self._faint(image, m, _SATURATION_CUT_SHARE if id(m) in by_saturation
+                                        else 1.0)]
         marks.sort(key=lambda m: (-m.radius, m.x, m.y))
         return marks
 
-    def _faint(self, image: U8Array, mark: Mark) -> bool:
+    def _faint(self, image: U8Array, mark: Mark, share: float = 1.0) -> bool:
         """Whether ``mark``'s colour hardly stands out from its surroundings (:mod:`.faint`):
-        below ``min_chroma_contrast``, scaled down in scenes darker than ``val_ref_grey``."""
+        below ``share`` of ``min_chroma_contrast``, scaled down in scenes darker than
+        ``val_ref_grey``."""
         cfg = self.config
         contrast = chroma_contrast(image, mark, self.last_gains)
         if contrast is None:
             return False
         exposure = min(1.0, self.last_grey_level / cfg.val_ref_grey) if cfg.val_ref_grey > 0 \
             else 1.0
-        return contrast < cfg.min_chroma_contrast * exposure
+        return contrast < share * cfg.min_chroma_contrast * exposure
 
     def _horizon_band(self, height: int, scale: int) -> tuple[float, float] | None:
         """Rows (search resolution) where mark centres may lie, or None without the prior."""
