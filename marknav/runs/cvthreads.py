@@ -22,7 +22,9 @@ __all__ = ["one_opencv_thread"]
 @contextmanager
 def one_opencv_thread() -> Iterator[None]:
     """OpenCV on one thread while the block runs, then as before (results are the same
-    either way: OpenCV's parallel loops split pixels, not arithmetic)."""
+    either way: OpenCV's parallel loops split pixels, not arithmetic). The setting is the
+    process's: blocks overlapping in two threads would restore it out of order (runs in one
+    process are serialised: ``evaluate_backends._RUN_LOCK``)."""
     import cv2
 
     before = cv2.getNumThreads()

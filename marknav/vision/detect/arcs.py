@@ -66,7 +66,7 @@ class _Window:
     x0: int
     y0: int
     bgr: Mat
-    labels: Mat  # palette index per pixel, _NO_COLOUR for none
+    labels: Mat  # palette index per pixel, _NO_COLOUR for none, _OTHER: another object
     blob: Mat  # the blob's pixels, dilated (255)
 
 
@@ -160,7 +160,8 @@ class _ArcMarks(_WholeMarks):
                       merged: bool = False, win: _Window | None = None) -> list[Mark]:
         """Marks of the given colours in the blob's full-resolution window (arc path). With
         ``try_whole``, each part of a colour's mask is first tried as a whole mark. ``merged``
-        (one colour given): every palette-coloured pixel counts as that colour. ``win``: the
+        (one colour given): every palette-coloured pixel counts as that colour (not another
+        hue cluster's, :attr:`_Frame.hue_keep`). ``win``: the
         blob's :meth:`_window` (``pad`` 4) when the caller already made it."""
         cfg = self.config
         if win is None:

@@ -289,10 +289,10 @@ class Detector(_ArcMarks):
         clusters = cv2.LUT(hue, lut)
         marks: list[Mark] = []
         for k in range(len(peaks)):
-            # The other clusters' hues are another object for this part's readings (a board
-            # of a near colour behind the mark is not the mark going on past its outline).
-            keep = np.where(lut == k, 255, 0).astype(np.uint8)
-            keep[HUE_MAX:] = 0
+            # The other clusters' palette hues are another object for this part's readings (a
+            # board of a near colour behind the mark is not the mark going on past its outline);
+            # hues of no palette colour stay what they are, background.
+            keep = np.where((lut == k) | (self._hue_lut == _NO_COLOUR), 255, 0).astype(np.uint8)
             part_frame = dataclasses.replace(frame, hue_keep=keep)
             own = cv2.bitwise_and(cv2.inRange(clusters, k, k), region)
             own = cv2.morphologyEx(own, cv2.MORPH_OPEN, self._kernel3)
