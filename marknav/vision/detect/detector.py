@@ -130,7 +130,7 @@ class Detector(_ArcMarks):
         # gap the cut has measured (>= split_saturation_gap); their colour difference to it is
         # small (a green disc on a green carpet: chroma 36-41 at floor S 170-180): the faint test
         # holds them to two thirds of its floor (small clutter the cut finds measures 17-24).
-        by_saturation: set[int] = set()
+        by_saturation: list[Mark] = []  # (held, so that their ids stay theirs)
         for contour in contours:
             if len(contour) < 6:
                 continue
@@ -149,7 +149,7 @@ class Detector(_ArcMarks):
                     found = self._split_hues(frame, contour, area, min_area)
                 if cfg.split_saturation_gap > 0:
                     cut = self._split_saturation(frame, contour, area, min_area)
-                    by_saturation.update(id(m) for m in cut)
+                    by_saturation.extend(cut)
                     found = found + cut
             marks.extend(found)
         if cfg.bridge_px > 0 and len(contours) >= 2:
@@ -163,8 +163,9 @@ class Detector(_ArcMarks):
         if cfg.reject_glows:
             marks = [m for m in marks if not is_glow(image, m)]
         if cfg.min_chroma_contrast > 0 and marks:
+            cut_ids = {id(m) for m in by_saturation}
             marks = [m for m in marks
-                     if not self._faint(image, m, _SATURATION_CUT_SHARE if id(m) in by_saturation
+                     if not self._faint(image, m, _SATURATION_CUT_SHARE if id(m) in cut_ids
                                         else 1.0)]
         marks.sort(key=lambda m: (-m.radius, m.x, m.y))
         return marks
