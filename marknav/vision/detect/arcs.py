@@ -48,7 +48,9 @@ def _mean_abs(values: FloatArray) -> float:
 
 
 #: The flattest outline a partial mark is allowed before a straight stretch of it counts as an
-#: occluder's edge: that of an ellipse of this axis ratio about its hull's equivalent radius.
+#: occluder's edge: that of an ellipse of this axis ratio about the larger of the blob's
+#: equivalent radius and half its extent (0.45-0.7 find the same 41 of 48 elongated partial
+#: marks in the session-5 sweep; 0.6 and more miss a bar across composite frame 21's mark).
 _STRAIGHT_AXIS_RATIO = 0.7
 
 #: A window's label for pixels of a palette colour's other hue cluster (:attr:`_Frame.hue_keep`):
@@ -183,8 +185,8 @@ class _ArcMarks(_WholeMarks):
             if transform is None:
                 continue
             alpha = cv2.transform(win.bgr, transform)
-            # Pixels of the other palette colours are not this mark; blob pixels of this colour
-            # below the mid-level (a highlight) are.
+            # Pixels of the other palette colours (and of other hue clusters) are not this
+            # mark; blob pixels of this colour below the mid-level (a highlight) are.
             others = cv2.bitwise_xor(cv2.bitwise_not(background), own)
             alpha[others > 0] = 0
             binary = cv2.threshold(alpha, 127, 255, cv2.THRESH_BINARY)[1]
