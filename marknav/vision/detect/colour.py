@@ -244,8 +244,13 @@ class _ColourStage(_DetectorBase):
 
     def _value_floor(self, grey: float) -> int:
         cfg = self.config
-        exposure = min(1.0, grey / cfg.val_ref_grey) if cfg.val_ref_grey > 0 else 1.0
-        return int(max(self._val_min * exposure, cfg.val_rel_min * grey))
+        return int(max(self._val_min * self._exposure(grey), cfg.val_rel_min * grey))
+
+    def _exposure(self, grey: float) -> float:
+        """How far a scene of grey level ``grey`` falls short of ``val_ref_grey`` (1 at or
+        above it): the floors that hold for a lit scene scale down with it."""
+        ref = self.config.val_ref_grey
+        return min(1.0, grey / ref) if ref > 0 else 1.0
 
     def _colours(self, frame: _Frame, contour: Contour,
                  box: tuple[int, int, int, int]) -> _BlobColours:

@@ -178,9 +178,7 @@ class Detector(_ArcMarks):
         contrast = chroma_contrast(image, mark, self.last_gains)
         if contrast is None:
             return False
-        exposure = min(1.0, self.last_grey_level / cfg.val_ref_grey) if cfg.val_ref_grey > 0 \
-            else 1.0
-        return contrast < share * cfg.min_chroma_contrast * exposure
+        return contrast < share * cfg.min_chroma_contrast * self._exposure(self.last_grey_level)
 
     def _horizon_band(self, height: int, scale: int) -> tuple[float, float] | None:
         """Rows (search resolution) where mark centres may lie, or None without the prior."""
