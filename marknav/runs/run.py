@@ -215,6 +215,11 @@ def execute(req: RunRequest) -> RunResult:
                         else default_max_time_s(mission)),
             realtime=req.realtime, sleep=req.robot != "sim", observer=recorder,
         )
+        # The detector's compiled loops are loaded now (≈ 0.1 s once per process), before
+        # the clock starts: the first control cycle must not wait for them.
+        from marknav.vision.detect.kernels import warm_up
+
+        warm_up()
         # A simulated run is lock-step on small arrays: one OpenCV thread is as fast and
         # leaves the other core free (:mod:`marknav.runs.cvthreads`).
         with one_opencv_thread() if req.robot == "sim" else contextlib.nullcontext():

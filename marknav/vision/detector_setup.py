@@ -84,6 +84,8 @@ class CameraDetector:
         self._max_range_mm = max_range_mm
         self._tolerance_deg = horizon_tolerance_deg
         self._detectors: dict[tuple[int, int], Detector] = {}
+        # The camera's own size now, at set-up (tables, compiled loops), not in the first frame.
+        self.detector_for(width, height)
 
     @classmethod
     def for_mission(cls, mission: Mission, horizon_row: float | None = None) -> CameraDetector:

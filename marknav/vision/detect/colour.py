@@ -27,6 +27,7 @@ import numpy.typing as npt
 
 from marknav.vision.detect.base import _DetectorBase, _Frame
 from marknav.vision.detect.geometry import Contour, FloatArray, Mat, U8Array
+from marknav.vision.detect.kernels import block_means, grey_sums, saturation_rank
 from marknav.vision.palette import HUE_MAX, ColourRange
 
 log = logging.getLogger("marknav.vision.detect")
@@ -40,6 +41,8 @@ _MIN_CONTRAST = 12.0
 #: Saturation up to which a clipped pixel counts as a near-white in an overexposed frame (a cool
 #: cast clipped to (255, 250, 200) is S ≈ 55; an orange surface's clipped highlights S 100-160).
 _CLIPPED_S_MAX = 90
+#: No gains: the pixels' saturation read as they are.
+_UNIT_GAINS = np.ones(3, np.float32)
 _HUE_ANGLES = np.arange(HUE_MAX) * (2.0 * math.pi / HUE_MAX)
 _HUE_SIN = np.sin(_HUE_ANGLES)
 _HUE_COS = np.cos(_HUE_ANGLES)
@@ -78,33 +81,27 @@ def _circular_mean_hue(hist: FloatArray) -> float | None:
 
 
 @functools.lru_cache(maxsize=8)
-def _subsample_index(h: int, w: int, scale: int) -> npt.NDArray[np.intp]:
-    """Flat pixel indices (scale² × th × tw) of the blocks :func:`balance_subsample` reads."""
+def _subsample_origins(h: int, w: int, scale: int) -> tuple[npt.NDArray[np.intp],
+                                                            npt.NDArray[np.intp]]:
+    """Rows and columns (full resolution) of the top-left pixels of the blocks
+    :func:`balance_subsample` reads."""
     sh, sw = (h // scale, w // scale) if scale > 1 else (h, w)
     step = max(1, sw // 48)
     th, tw = max(1, sh // step), max(1, sw // step)
     # cv2.INTER_NEAREST: source index floor(dst · src / dst_size).
     ys = (np.arange(th) * (sh / th)).astype(np.intp) * scale
     xs = (np.arange(tw) * (sw / tw)).astype(np.intp) * scale
-    out = [((ys + dy)[:, None] * w + (xs + dx)[None, :])
-           for dy in range(scale) for dx in range(scale)]
-    return np.stack(out)
+    return ys, xs
 
 
 def balance_subsample(image: U8Array | Mat, scale: int) -> Mat:
     """The subsample :meth:`_ColourStage.white_balance` reads of ``image`` box-reduced by
     ``scale`` (1 or 2), taken from ``image`` itself: the same pixels (nearest neighbour of the
-    reduced image, each the mean of its ``scale``×``scale`` block) without reducing the frame."""
+    reduced image, each the mean of its ``scale``×``scale`` block, rounded as ``INTER_AREA``
+    rounds it) without reducing the frame."""
     h, w = image.shape[:2]
-    index = _subsample_index(h, w, scale)
-    flat = np.ascontiguousarray(image).reshape(-1, 3)
-    taken = np.take(flat, index, axis=0)
-    if scale == 1:
-        return np.ascontiguousarray(taken[0])
-    acc = np.add.reduce(taken, axis=0, dtype=np.uint16)
-    # INTER_AREA rounds the block mean to nearest.
-    n = scale * scale
-    out: Mat = ((acc + n // 2) // n).astype(np.uint8)
+    ys, xs = _subsample_origins(h, w, scale)
+    out: Mat = block_means(image, ys, xs, scale)
     return out
 
 
@@ -188,34 +185,36 @@ class _ColourStage(_DetectorBase):
         return self.balance_sample(tiny)
 
     def balance_sample(self, tiny: U8Array | Mat) -> tuple[tuple[float, float, float], float]:
-        """:meth:`white_balance` of its ≈ 48-pixel-wide subsample."""
+        """:meth:`white_balance` of its ≈ 48-pixel-wide subsample (the per-pixel loops in
+        :mod:`.kernels`: saturation and value as OpenCV's BGR→HSV gives them)."""
         gains = (1.0, 1.0, 1.0)
         grey = -1.0
-        hsv = cv2.cvtColor(tiny, cv2.COLOR_BGR2HSV)
-        hist = cv2.calcHist([hsv], [1], None, [256], [0, 256]).ravel()
-        s40 = int(np.searchsorted(np.cumsum(hist), 0.4 * float(hist.sum())))
-        s_max = min(160, max(60, s40 + 25))
+        s_max = min(160, max(60, saturation_rank(tiny, 0.4) + 25))
+        enough = 0.05 * tiny.shape[0] * tiny.shape[1]
+        seen_with = _UNIT_GAINS  # the gains the pixels' saturation is read after
         for attempt in range(2):
-            greyish = cv2.inRange(hsv, (0, 0, 16), (255, s_max, 250))
-            if attempt == 0 and cv2.countNonZero(greyish) < 0.05 * greyish.size:
+            count, sb, sg, sr = grey_sums(tiny, seen_with, s_max, 16, 250)
+            if attempt == 0 and count < enough:
                 # An overexposed scene: its greys are clipped. Clipping flattens a cast but keeps
                 # its direction, so the clipped near-whites still say which way to correct.
                 # Only near-whites: a bright surface clipped in one channel (an orange
                 # photograph's highlights) keeps its own hue, not the light's.
-                greyish = cv2.inRange(hsv, (0, 0, 16), (255, min(s_max, _CLIPPED_S_MAX), 255))
-            if cv2.countNonZero(greyish) < 0.05 * greyish.size:
+                count, sb, sg, sr = grey_sums(tiny, seen_with, min(s_max, _CLIPPED_S_MAX), 16,
+                                              255)
+            if count < enough:
                 break
-            mean = cv2.mean(tiny, mask=greyish)
+            inv = 1.0 / count  # as cv2.mean scales its sums
+            mean = (sb * inv, sg * inv, sr * inv)
             grey = (mean[0] + mean[1] + mean[2]) / 3.0
-            b, g, r = self._light_gains(tuple(grey / max(c, 1.0) for c in mean[:3]))
+            b, g, r = self._light_gains(tuple(grey / max(c, 1.0) for c in mean))
             gains = (b, g, r)
             if max(abs(b - 1.0), abs(g - 1.0), abs(r - 1.0)) <= 0.02:
                 break
-            hsv = cv2.cvtColor(cv2.transform(tiny, _diagonal(gains)), cv2.COLOR_BGR2HSV)
+            seen_with = np.array(gains, np.float32)
             s_max = 40
         if grey < 0:  # no grey to measure: the scene's mean level
-            mean = cv2.mean(tiny)
-            grey = (mean[0] + mean[1] + mean[2]) / 3.0
+            m = cv2.mean(tiny)
+            grey = (m[0] + m[1] + m[2]) / 3.0
         return gains, grey
 
     def _light_gains(self, gains: Sequence[float]) -> tuple[float, float, float]:

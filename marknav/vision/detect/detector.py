@@ -34,6 +34,7 @@ from marknav.vision.detect.geometry import (
     _longest_edge,
 )
 from marknav.vision.detect.glow import is_glow
+from marknav.vision.detect.kernels import warm_up
 from marknav.vision.detect.model import DetectorConfig, Mark
 from marknav.vision.detect.suppress import _suppress_duplicates
 from marknav.vision.palette import DEFAULT_PALETTE, HUE_MAX, Palette
@@ -82,6 +83,7 @@ class Detector(_ArcMarks):
         self.last_gains: tuple[float, float, float] = (1.0, 1.0, 1.0)
         self.last_grey_level: float = 0.0
         self._buffers = SearchBuffers()
+        warm_up()  # the compiled loops the white balance uses, loaded before the first frame
 
     def detect(self, image: U8Array) -> list[Mark]:
         """All marks in a BGR ``uint8`` image (H×W×3), largest first."""
