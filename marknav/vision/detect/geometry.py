@@ -16,6 +16,8 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from marknav.vision.detect.kernels import circle_fit, ellipse_rms, true_runs
+
 FloatArray = npt.NDArray[np.float64]
 U8Array = npt.NDArray[np.uint8]
 #: What OpenCV returns (images, masks, contours): its stubs type the element loosely.
@@ -89,45 +91,6 @@ def _from_rotated_rect(rect: tuple[Sequence[float], Sequence[float], float]) -> 
     return _Ellipse(float(cx), float(cy), float(w) / 2.0, float(h) / 2.0, math.radians(angle))
 
 
-def _fit_circle(pts: FloatArray, iterations: int = 0) -> _Ellipse | None:
-    """Least-squares circle: the algebraic (Kåsa) fit in closed form, then ``iterations``
-    Gauss-Newton steps on the geometric distances (the algebraic fit shrinks short arcs)."""
-    n = len(pts)
-    if n < 3:
-        return None
-    mean = pts.sum(axis=0) / n
-    # The sums the normal equations need, from one Gram matrix of (u, v, u² + v²).
-    cols = np.empty((n, 3), np.float64)
-    np.subtract(pts, mean, out=cols[:, :2])
-    u, v = cols[:, 0], cols[:, 1]
-    cols[:, 2] = u * u + v * v
-    (suu, suv, suw), (_, svv, svw), _ = (cols.T @ cols).tolist()
-    rhs_u, rhs_v = 0.5 * suw, 0.5 * svw
-    det = suu * svv - suv * suv
-    if abs(det) < 1e-9 * max(suu * svv, 1e-12):
-        return None
-    cx = (rhs_u * svv - rhs_v * suv) / det
-    cy = (rhs_v * suu - rhs_u * suv) / det
-    r = math.sqrt(cx * cx + cy * cy + (suu + svv) / n)
-    for _ in range(iterations):
-        dx = u - cx
-        dy = v - cy
-        dist = np.sqrt(dx * dx + dy * dy)
-        if float(dist.min()) < 1e-9:
-            break
-        jac = np.column_stack([dx / dist, dy / dist, np.ones(n)])
-        try:
-            step = np.linalg.solve(jac.T @ jac, jac.T @ (dist - r))
-        except np.linalg.LinAlgError:
-            break
-        cx, cy, r = cx + float(step[0]), cy + float(step[1]), r + float(step[2])
-        if float(np.abs(step).max()) < 1e-3:
-            break
-    if not (r > 0 and math.isfinite(cx) and math.isfinite(cy) and math.isfinite(r)):
-        return None
-    return _Ellipse(cx + float(mean[0]), cy + float(mean[1]), r, r, 0.0)
-
-
 def _fit_ellipse(pts: FloatArray) -> _Ellipse | None:
     if len(pts) < 6:
         return None
@@ -146,37 +109,27 @@ def _rms(values: FloatArray) -> float:
 
 def _runs(keep: npt.NDArray[np.bool_]) -> list[npt.NDArray[np.intp]]:
     """Index arrays of the maximal runs of True in a cyclic boolean array."""
-    n = len(keep)
-    if n == 0 or not keep.any():
+    if len(keep) == 0:
         return []
-    if keep.all():
-        return [np.arange(n)]
-    start = int(np.argmin(keep))  # a False element: runs cannot wrap past it
-    rolled = np.concatenate((keep[start:], keep[:start]))
-    idx = np.concatenate((np.arange(start, n), np.arange(start)))
-    edges = np.diff(np.concatenate([[0], rolled.astype(np.int8), [0]]))
-    begins = np.flatnonzero(edges == 1)
-    ends = np.flatnonzero(edges == -1)
-    return [idx[b:e] for b, e in zip(begins, ends, strict=True)]
+    order, bounds = true_runs(keep)
+    return [order[b:e] for b, e in bounds.tolist()]
 
 
-def _fit_arc(pts: FloatArray, iterations: int = 0) -> _Ellipse | None:
+def _fit_arc(pts: FloatArray) -> _Ellipse | None:
     """Model of one or more arcs: a circle, or an ellipse when that fits clearly better and the
-    points go round enough of it to pin it down."""
-    circle = _fit_circle(pts, iterations)
-    if circle is None:
+    points go round enough of it (200°) to pin it down."""
+    pts = np.ascontiguousarray(pts, np.float64)
+    ok, cx, cy, r, span = circle_fit(pts, len(pts) >= 12)
+    if not ok:
         return None
-    if len(pts) < 12:
-        return circle
-    ang = np.sort(np.arctan2(pts[:, 1] - circle.cy, pts[:, 0] - circle.cx))
-    gap = max(float((ang[1:] - ang[:-1]).max()), float(ang[0]) + 2 * math.pi - float(ang[-1]))
-    span = 2 * math.pi - gap
-    if span < math.radians(200):
+    circle = _Ellipse(cx, cy, r, r, 0.0)
+    if len(pts) < 12 or span < math.radians(200):
         return circle
     ell = _fit_ellipse(pts)
     if ell is None or ell.minor / ell.major < 0.3 or ell.major > 1.5 * circle.major:
         return circle
-    if _rms(ell.residuals(pts)) < 0.7 * _rms(circle.residuals(pts)):
+    if ellipse_rms(pts, ell.cx, ell.cy, ell.a, ell.b, ell.theta) < \
+            0.7 * ellipse_rms(pts, cx, cy, r, r, 0.0):
         return ell
     return circle
 

@@ -1,4 +1,8 @@
-"""Compiled per-pixel loops (numba) where a stage's cost was the calls, not the pixels.
+"""Compiled loops (numba) where a stage's cost was the calls, not the pixels or points.
+
+Per-frame and per-blob steps on a few thousand pixels or a few hundred contour points cost
+microseconds of arithmetic and tens of microseconds of NumPy and OpenCV call overhead. These
+loops compute the same numbers in one call each.
 
 The white balance reads a ≈ 48×36 subsample of every frame. As a chain of OpenCV and NumPy calls
 (block means, BGR→HSV, a saturation histogram, two masks, two masked means, a colour transform
@@ -15,16 +19,32 @@ Saturation and value are OpenCV's 8-bit ``COLOR_BGR2HSV`` ones exactly: ``V = ma
 ``S = ((V − min)·⌊255·2¹²/V⌉ + 2¹¹) >> 12`` (its division table); a gain is applied as
 ``cv2.transform`` with a diagonal ``float32`` matrix applies it (the product in ``float32``,
 rounded half to even, saturated). ``tests/vision/test_kernels.py`` checks both against OpenCV
-on every 8-bit colour. Compiled on first use and cached beside this file (``cache=True``).
+on every 8-bit colour.
+
+The arc path and the whole-mark measurement:
+
+- :func:`circle_fit` — the algebraic (Kåsa) least-squares circle through contour points and the
+  angle the points span around it (the same formulas as before; the sums in point order, so the
+  last bits may differ from the matrix product's);
+- :func:`ellipse_rms` — how far points lie from an ellipse or circle (root mean square);
+- :func:`true_runs` — the maximal runs of a cyclic boolean array;
+- :func:`quadrants_differ` — whether the background's chroma differs between the quadrants
+  around a centre (exact integer sums, as the integral images gave them).
+
+Compiled on first use and cached beside this file (``cache=True``); :func:`warm_up` does it at
+set-up.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-__all__ = ["block_means", "grey_sums", "saturation_rank", "warm_up"]
+__all__ = ["block_means", "circle_fit", "ellipse_rms", "grey_sums", "quadrants_differ",
+           "saturation_rank", "true_runs", "warm_up"]
 
 _HSV_SHIFT = 12
 #: OpenCV's ``sdiv_table``: round(255·2¹² / v), 0 for v = 0.
@@ -115,6 +135,157 @@ def grey_sums(bgr: npt.NDArray[np.uint8], gains: npt.NDArray[np.float32], s_max:
     return count, float(sb), float(sg), float(sr)
 
 
+
+@njit(cache=True, nogil=True)
+def circle_fit(pts: npt.NDArray[np.float64],
+               want_span: bool) -> tuple[bool, float, float, float, float]:
+    """(ok, cx, cy, r, span): the algebraic least-squares circle through ``pts`` (n × 2), in
+    closed form about the points' mean, and with ``want_span`` the angle (radians) the points
+    cover around it — 2π minus the widest gap between their directions (else 0). Not ok for
+    fewer than 3 points, collinear points or a non-finite result."""
+    n = pts.shape[0]
+    if n < 3:
+        return False, 0.0, 0.0, 0.0, 0.0
+    mx = 0.0
+    my = 0.0
+    for i in range(n):
+        mx += pts[i, 0]
+        my += pts[i, 1]
+    mx /= n
+    my /= n
+    suu = suv = suw = svv = svw = 0.0
+    for i in range(n):
+        u = pts[i, 0] - mx
+        v = pts[i, 1] - my
+        w = u * u + v * v
+        suu += u * u
+        suv += u * v
+        suw += u * w
+        svv += v * v
+        svw += v * w
+    rhs_u, rhs_v = 0.5 * suw, 0.5 * svw
+    det = suu * svv - suv * suv
+    if abs(det) < 1e-9 * max(suu * svv, 1e-12):
+        return False, 0.0, 0.0, 0.0, 0.0
+    cx = (rhs_u * svv - rhs_v * suv) / det
+    cy = (rhs_v * suu - rhs_u * suv) / det
+    r = math.sqrt(cx * cx + cy * cy + (suu + svv) / n)
+    if not (r > 0 and math.isfinite(cx) and math.isfinite(cy) and math.isfinite(r)):
+        return False, 0.0, 0.0, 0.0, 0.0
+    cx += mx
+    cy += my
+    span = 0.0
+    if want_span:
+        ang = np.empty(n)
+        for i in range(n):
+            ang[i] = math.atan2(pts[i, 1] - cy, pts[i, 0] - cx)
+        ang.sort()
+        gap = ang[0] + 2.0 * math.pi - ang[n - 1]
+        for i in range(1, n):
+            gap = max(gap, ang[i] - ang[i - 1])
+        span = 2.0 * math.pi - gap
+    return True, cx, cy, r, span
+
+
+@njit(cache=True, nogil=True)
+def ellipse_rms(pts: npt.NDArray[np.float64], cx: float, cy: float, a: float, b: float,
+                theta: float) -> float:
+    """Root mean square of the points' signed distances from the ellipse (centre, semi-axes
+    ``a`` along ``theta`` and ``b``), each measured along its ray from the centre as
+    :meth:`.geometry._Ellipse.residuals` measures it (a point at the centre: minus the minor
+    semi-axis); inf for no point."""
+    n = pts.shape[0]
+    if n == 0:
+        return math.inf
+    c, s = math.cos(theta), math.sin(theta)
+    total = 0.0
+    for i in range(n):
+        dx = pts[i, 0] - cx
+        dy = pts[i, 1] - cy
+        if a == b:
+            res = math.hypot(dx, dy) - a
+        else:
+            q0 = dx * (c / a) + dy * (s / a)
+            q1 = dx * (-s / b) + dy * (c / b)
+            rho = math.sqrt(q0 * q0 + q1 * q1)
+            res = -min(a, b) if rho == 0.0 else math.sqrt(dx * dx + dy * dy) * (1.0 - 1.0 / rho)
+        total += res * res
+    return math.sqrt(total / n)
+
+
+@njit(cache=True, nogil=True)
+def true_runs(keep: npt.NDArray[np.bool_]) -> tuple[npt.NDArray[np.intp],
+                                                     npt.NDArray[np.intp]]:
+    """The maximal runs of True in the cyclic array ``keep``: ``(order, bounds)``, each run
+    being ``order[b:e]`` for a row (b, e) of ``bounds``. ``order`` lists the indices from the
+    first False one on (so that no run wraps past it), all of them when every one is True."""
+    n = len(keep)
+    start = 0
+    while start < n and keep[start]:
+        start += 1
+    if start == n:
+        start = 0
+    order = np.empty(n, np.intp)
+    for i in range(n):
+        order[i] = (start + i) % n
+    bounds = np.empty((n // 2 + 1, 2), np.intp)
+    k = 0
+    i = 0
+    while i < n:
+        if keep[order[i]]:
+            b = i
+            while i < n and keep[order[i]]:
+                i += 1
+            bounds[k, 0] = b
+            bounds[k, 1] = i
+            k += 1
+        else:
+            i += 1
+    return order, bounds[:k]
+
+
+@njit(cache=True, nogil=True)
+def quadrants_differ(roi: npt.NDArray[np.uint8], back: npt.NDArray[np.uint8], cx: int, cy: int,
+                     spread: float) -> bool:
+    """Whether two of the four quadrants about (``cx``, ``cy``) — rows ``[0, cy)`` / ``[cy, h)``
+    by columns ``[0, cx)`` / ``[cx, w)`` — have background colours (the ``roi`` pixels where
+    ``back`` is set, quadrants of at least 4 such pixels) whose chroma (grey removed) lies
+    ``spread`` or more apart."""
+    h, w = back.shape
+    counts = np.zeros(4, np.int64)
+    sums = np.zeros((4, 3), np.int64)
+    for y in range(h):
+        row = 0 if y < cy else 2
+        for x in range(w):
+            value = back[y, x]
+            if value == 0:
+                continue
+            q = row if x < cx else row + 1
+            counts[q] += value
+            for c in range(3):
+                sums[q, c] += roi[y, x, c]
+    chroma = np.empty((4, 3))
+    kept = 0
+    for q in range(4):
+        n = counts[q] // 255
+        if n < 4:
+            continue
+        inv = 1.0 / n
+        b, g, r = float(sums[q, 0]) * inv, float(sums[q, 1]) * inv, float(sums[q, 2]) * inv
+        grey = (b + g + r) / 3.0
+        chroma[kept, 0], chroma[kept, 1], chroma[kept, 2] = b - grey, g - grey, r - grey
+        kept += 1
+    limit = spread * spread
+    for i in range(kept):
+        for j in range(i + 1, kept):
+            d0 = chroma[i, 0] - chroma[j, 0]
+            d1 = chroma[i, 1] - chroma[j, 1]
+            d2 = chroma[i, 2] - chroma[j, 2]
+            if d0 * d0 + d1 * d1 + d2 * d2 >= limit:
+                return True
+    return False
+
+
 _warm = False
 
 
@@ -128,4 +299,8 @@ def warm_up() -> None:
     block_means(np.zeros((4, 4, 3), np.uint8), np.zeros(1, np.intp), np.zeros(1, np.intp), 2)
     saturation_rank(tiny, 0.5)
     grey_sums(tiny, np.ones(3, np.float32), 255, 0, 255)
+    circle_fit(np.array([[0.0, 1.0], [1.0, 0.0], [0.0, -1.0], [-1.0, 0.0]]), True)
+    ellipse_rms(np.zeros((1, 2)), 0.0, 0.0, 2.0, 1.0, 0.0)
+    true_runs(np.ones(3, np.bool_))
+    quadrants_differ(tiny, np.zeros((2, 2), np.uint8), 1, 1, 1.0)
     _warm = True

@@ -32,6 +32,7 @@ from marknav.vision.detect.geometry import (
     _moments_ellipse,
     _paste,
 )
+from marknav.vision.detect.kernels import quadrants_differ
 from marknav.vision.detect.model import Mark
 
 log = logging.getLogger("marknav.vision.detect")
@@ -276,30 +277,12 @@ class _WholeMarks(_ColourStage):
 
 def _quadrants_differ(roi: Mat, local: _Ellipse, back: Mat) -> bool:
     """Whether the background's colour may differ around the mark: the chroma of its four
-    quadrants (about the centre) spreads by more than ``_QUADRANT_SPREAD``. A handful of
-    OpenCV calls, so that the sector split is only paid for where it may matter."""
+    quadrants (about the centre) spreads by more than ``_QUADRANT_SPREAD``
+    (:func:`.kernels.quadrants_differ`), so that the sector split is only paid for where it
+    may matter."""
     h, w = roi.shape[:2]
     cx, cy = min(max(1, round(local.cx)), w - 1), min(max(1, round(local.cy)), h - 1)
-    # The four quadrants' pixel counts and colour sums from two integral images (exact integer
-    # sums; the means as cv2.mean makes them).
-    count = cv2.integral(back, sdepth=cv2.CV_32S)
-    total = cv2.integral(cv2.bitwise_and(roi, roi, mask=back), sdepth=cv2.CV_32S)
-    chromas = []
-    for y0, y1, x0, x1 in ((0, cy, 0, cx), (0, cy, cx, w), (cy, h, 0, cx), (cy, h, cx, w)):
-        n = int(count[y1, x1] - count[y0, x1] - count[y1, x0] + count[y0, x0]) // 255
-        if n < 4:
-            continue
-        sums = total[y1, x1] - total[y0, x1] - total[y1, x0] + total[y0, x0]
-        inv = 1.0 / n
-        b, g, r = float(sums[0]) * inv, float(sums[1]) * inv, float(sums[2]) * inv
-        grey = (b + g + r) / 3.0
-        chromas.append((b - grey, g - grey, r - grey))
-    for i, a in enumerate(chromas):
-        for c in chromas[i + 1:]:
-            if (a[0] - c[0]) ** 2 + (a[1] - c[1]) ** 2 + (a[2] - c[2]) ** 2 >= \
-                    _QUADRANT_SPREAD ** 2:
-                return True
-    return False
+    return bool(quadrants_differ(roi, back, cx, cy, _QUADRANT_SPREAD))
 
 
 def _sector_of(dx: npt.NDArray[np.floating[Any]], dy: npt.NDArray[np.floating[Any]],
