@@ -130,3 +130,118 @@ def test_warm_up_leaves_every_loop_compiled() -> None:
     kernels.warm_up()
     for loop in (kernels.block_means, kernels.saturation_rank, kernels.grey_sums):
         assert loop.signatures, loop
+
+
+# --- the arc path's and the whole-mark measurement's loops ------------------------------------
+
+
+def _numpy_circle(pts: np.ndarray) -> tuple[float, float, float]:
+    """The Kåsa circle through the normal equations, solved by NumPy."""
+    x, y = pts[:, 0], pts[:, 1]
+    a = np.column_stack([x, y, np.ones(len(pts))])
+    (d, e, f), *_ = np.linalg.lstsq(a, x * x + y * y, rcond=None)
+    cx, cy = d / 2.0, e / 2.0
+    return cx, cy, math.sqrt(f + cx * cx + cy * cy)
+
+
+def _arc(rng: np.random.Generator, n: int, span_deg: float) -> np.ndarray:
+    phi = np.radians(rng.uniform(0, 360) + np.linspace(0, span_deg, n))
+    cx, cy, r = rng.uniform(-50, 50), rng.uniform(-50, 50), rng.uniform(5, 80)
+    return np.column_stack([cx + r * np.cos(phi), cy + r * np.sin(phi)]) + \
+        rng.normal(0, 0.3, (n, 2))
+
+
+def test_circle_fit_is_the_least_squares_circle_and_its_span() -> None:
+    rng = np.random.default_rng(3)
+    for span in (40.0, 120.0, 230.0, 359.0):
+        pts = _arc(rng, 80, span)
+        ok, cx, cy, r, got_span = kernels.circle_fit(pts, True)
+        assert ok
+        assert (cx, cy, r) == pytest.approx(_numpy_circle(pts), rel=1e-9, abs=1e-9)
+        # the widest gap between the points' directions, seen from the fitted centre
+        ang = np.sort(np.arctan2(pts[:, 1] - cy, pts[:, 0] - cx))
+        gap = max(float(np.diff(ang).max()), float(ang[0] + 2 * math.pi - ang[-1]))
+        assert got_span == pytest.approx(2 * math.pi - gap, abs=1e-12)
+        assert abs(math.degrees(got_span) - span) < 10.0  # (noisy points, a fitted centre)
+    assert not kernels.circle_fit(np.array([[0.0, 0.0], [1.0, 1.0]]), True)[0]
+    line = np.column_stack([np.arange(10.0), 2.0 * np.arange(10.0)])
+    assert not kernels.circle_fit(line, False)[0]  # collinear: no circle
+
+
+def test_ellipse_rms_is_the_residuals_rms() -> None:
+    from marknav.vision.detect.geometry import _Ellipse, _rms
+
+    rng = np.random.default_rng(4)
+    for a, b in ((20.0, 20.0), (30.0, 18.0), (9.0, 14.0)):
+        e = _Ellipse(rng.uniform(-9, 9), rng.uniform(-9, 9), a, b, rng.uniform(0, math.pi))
+        pts = rng.normal(0, 25, (200, 2))
+        pts[0] = (e.cx, e.cy)  # the centre itself: minus the minor semi-axis
+        got = kernels.ellipse_rms(pts, e.cx, e.cy, e.a, e.b, e.theta)
+        assert got == pytest.approx(_rms(e.residuals(pts)), rel=1e-12)
+    assert kernels.ellipse_rms(np.zeros((0, 2)), 0.0, 0.0, 1.0, 1.0, 0.0) == math.inf
+
+
+def _numpy_runs(keep: np.ndarray) -> list[list[int]]:
+    n = len(keep)
+    if n == 0 or not keep.any():
+        return []
+    if keep.all():
+        return [list(range(n))]
+    start = int(np.argmin(keep))
+    order = [(start + i) % n for i in range(n)]
+    runs: list[list[int]] = []
+    current: list[int] = []
+    for i in order:
+        if keep[i]:
+            current.append(i)
+        elif current:
+            runs.append(current)
+            current = []
+    if current:
+        runs.append(current)
+    return runs
+
+
+def test_runs_are_the_cyclic_true_stretches() -> None:
+    from marknav.vision.detect.geometry import _runs
+
+    rng = np.random.default_rng(6)
+    cases = [np.zeros(0, bool), np.zeros(5, bool), np.ones(7, bool),
+             np.array([True, True, False, True, True]),  # wraps round: one run 3, 4, 0, 1
+             np.array([False, True, False, True])]
+    cases += [rng.random(n) < p for n in (1, 2, 17, 300) for p in (0.2, 0.5, 0.9)]
+    for keep in cases:
+        assert [r.tolist() for r in _runs(keep)] == _numpy_runs(keep), keep
+    assert [r.tolist() for r in _runs(cases[3])] == [[3, 4, 0, 1]]
+
+
+@pytest.mark.parametrize("view", [False, True])
+def test_quadrants_differ_reads_the_background_of_each_quadrant(view: bool) -> None:
+    roi = np.full((40, 40, 3), 120, np.uint8)
+    back = np.full((40, 40), 255, np.uint8)
+    back[10:30, 10:30] = 0  # the mark's domain
+    if view:  # a region of a larger frame, as the detector passes it
+        frame = np.zeros((60, 70, 3), np.uint8)
+        frame[5:45, 7:47] = roi
+        roi = frame[5:45, 7:47]
+    assert not kernels.quadrants_differ(roi, back, 20, 20, 15.0)  # grey all round
+    roi[20:, :20] = (40, 90, 160)  # a wood floor in the lower-left quadrant
+    assert kernels.quadrants_differ(roi, back, 20, 20, 15.0)
+    assert not kernels.quadrants_differ(roi, back, 20, 20, 200.0)  # under the spread asked
+    back[20:, :20] = 0  # ... but none of its pixels is background
+    assert not kernels.quadrants_differ(roi, back, 20, 20, 15.0)
+
+
+def test_detection_compiles_nothing_after_warm_up() -> None:
+    """Every layout the detector passes is compiled at set-up: a frame's detection does not
+    stop to compile (≈ 0.1-0.3 s)."""
+    from marknav.vision.bench import bench_frames
+
+    kernels.warm_up()
+    loops = [getattr(kernels, name) for name in kernels.__all__ if name != "warm_up"]
+    before = [len(loop.signatures) for loop in loops]
+    detector = Detector(DEFAULT_PALETTE)
+    for scene in bench_frames(6, 7):
+        detector.detect(scene.image)
+        detector.detect(np.ascontiguousarray(scene.image[:, 1:]))  # odd width: other views
+    assert [len(loop.signatures) for loop in loops] == before

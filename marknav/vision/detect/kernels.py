@@ -291,16 +291,23 @@ _warm = False
 
 def warm_up() -> None:
     """Compile the loops (or load them from the cache: ≈ 0.1 s the first time in a process) now,
-    at set-up, rather than in the first frame's detection. Cheap after the first call."""
+    at set-up, rather than in the first frame's detection. Cheap after the first call.
+
+    A loop is compiled per argument layout: contiguous arrays and views (a region of a frame)
+    are both made here, as the detector passes them."""
     global _warm
     if _warm:
         return
-    tiny = np.zeros((2, 2, 3), np.uint8)
-    block_means(np.zeros((4, 4, 3), np.uint8), np.zeros(1, np.intp), np.zeros(1, np.intp), 2)
-    saturation_rank(tiny, 0.5)
-    grey_sums(tiny, np.ones(3, np.float32), 255, 0, 255)
-    circle_fit(np.array([[0.0, 1.0], [1.0, 0.0], [0.0, -1.0], [-1.0, 0.0]]), True)
-    ellipse_rms(np.zeros((1, 2)), 0.0, 0.0, 2.0, 1.0, 0.0)
+    frame = np.zeros((6, 6, 3), np.uint8)
+    view = frame[1:5, 1:5]  # a region of a frame: not contiguous
+    origins = np.zeros(1, np.intp)
+    for image in (frame, view):
+        block_means(image, origins, origins, 2)
+        saturation_rank(image, 0.5)
+        grey_sums(image, np.ones(3, np.float32), 255, 0, 255)
+        quadrants_differ(image, np.zeros(image.shape[:2], np.uint8), 1, 1, 1.0)
+    points = np.array([[0.0, 1.0], [1.0, 0.0], [0.0, -1.0], [-1.0, 0.0]])
+    circle_fit(points, True)
+    ellipse_rms(points, 0.0, 0.0, 2.0, 1.0, 0.0)
     true_runs(np.ones(3, np.bool_))
-    quadrants_differ(tiny, np.zeros((2, 2), np.uint8), 1, 1, 1.0)
     _warm = True
