@@ -109,7 +109,8 @@ def test_white_balance_gives_the_opencv_chain_s_gains(tint_limit: float | None) 
     rng = np.random.default_rng(11)
     cases = []
     for cast in ((1.0, 1.0, 1.0), (0.7, 1.0, 1.3), (1.3, 0.95, 0.7), (1.0, 1.25, 1.0)):
-        grey_room = rng.normal(120, 25, (36, 48, 1)) * np.array(cast) + rng.normal(0, 4, (36, 48, 3))
+        grey_room = (rng.normal(120, 25, (36, 48, 1)) * np.array(cast)
+                     + rng.normal(0, 4, (36, 48, 3)))
         cases.append(np.clip(grey_room, 0, 255).astype(np.uint8))
     overexposed = np.full((36, 48, 3), (255, 250, 215), np.uint8)  # clipped near-whites only
     saturated = np.zeros((36, 48, 3), np.uint8)
