@@ -246,3 +246,20 @@ def test_detection_compiles_nothing_after_warm_up() -> None:
         detector.detect(scene.image)
         detector.detect(np.ascontiguousarray(scene.image[:, 1:]))  # odd width: other views
     assert [len(loop.signatures) for loop in loops] == before
+
+
+def test_radius_range_spans_the_points_normalised_radii() -> None:
+    rng = np.random.default_rng(8)
+    pts = rng.integers(-40, 40, (150, 2)).astype(np.int32)
+    cx, cy, a, b, theta = 1.5, -2.25, 30.0, 17.0, 0.6
+    c, s = math.cos(theta), math.sin(theta)
+    d = pts - np.array([cx, cy])
+    u = (d[:, 0] * c + d[:, 1] * s) / a
+    v = (-d[:, 0] * s + d[:, 1] * c) / b
+    lo, hi = kernels.radius_range(pts, cx, cy, a, b, theta)
+    assert (lo, hi) == pytest.approx((float((u * u + v * v).min()), float((u * u + v * v).max())),
+                                     rel=1e-12)
+    ring = np.array([[round(20 * math.cos(t)), round(20 * math.sin(t))]
+                     for t in np.linspace(0, 2 * math.pi, 90)], np.int32)
+    lo, hi = kernels.radius_range(ring, 0.0, 0.0, 20.0, 20.0, 0.0)  # a digital circle: ≈ 1
+    assert 0.95 < lo <= 1.0 <= hi < 1.05

@@ -27,6 +27,7 @@ The arc path and the whole-mark measurement:
   angle the points span around it (the same formulas as before; the sums in point order, so the
   last bits may differ from the matrix product's);
 - :func:`ellipse_rms` — how far points lie from an ellipse or circle (root mean square);
+- :func:`radius_range` — how far inside and outside an ellipse a contour's points reach;
 - :func:`true_runs` — the maximal runs of a cyclic boolean array;
 - :func:`quadrants_differ` — whether the background's chroma differs between the quadrants
   around a centre (exact integer sums, as the integral images gave them).
@@ -44,7 +45,7 @@ import numpy.typing as npt
 from numba import njit
 
 __all__ = ["block_means", "circle_fit", "ellipse_rms", "grey_sums", "quadrants_differ",
-           "saturation_rank", "true_runs", "warm_up"]
+           "radius_range", "saturation_rank", "true_runs", "warm_up"]
 
 _HSV_SHIFT = 12
 #: OpenCV's ``sdiv_table``: round(255·2¹² / v), 0 for v = 0.
@@ -214,6 +215,27 @@ def ellipse_rms(pts: npt.NDArray[np.float64], cx: float, cy: float, a: float, b:
 
 
 @njit(cache=True, nogil=True)
+def radius_range(pts: npt.NDArray[np.int32], cx: float, cy: float, a: float, b: float,
+                 theta: float) -> tuple[float, float]:
+    """The least and the greatest squared normalised radius ``(u/a)² + (v/b)²`` of the points
+    (n × 2, integer pixels) about the ellipse (centre, semi-axes ``a`` along ``theta``, ``b``):
+    1 on it, below 1 inside."""
+    c, s = math.cos(theta), math.sin(theta)
+    m00, m01, m10, m11 = c / a, -s / b, s / a, c / b
+    lo = math.inf
+    hi = -math.inf
+    for i in range(pts.shape[0]):
+        dx = pts[i, 0] - cx
+        dy = pts[i, 1] - cy
+        u = dx * m00 + dy * m10
+        v = dx * m01 + dy * m11
+        rho2 = u * u + v * v
+        lo = min(lo, rho2)
+        hi = max(hi, rho2)
+    return lo, hi
+
+
+@njit(cache=True, nogil=True)
 def true_runs(keep: npt.NDArray[np.bool_]) -> tuple[npt.NDArray[np.intp],
                                                      npt.NDArray[np.intp]]:
     """The maximal runs of True in the cyclic array ``keep``: ``(order, bounds)``, each run
@@ -310,4 +332,5 @@ def warm_up() -> None:
     circle_fit(points, True)
     ellipse_rms(points, 0.0, 0.0, 2.0, 1.0, 0.0)
     true_runs(np.ones(3, np.bool_))
+    radius_range(np.zeros((1, 2), np.int32), 0.0, 0.0, 1.0, 1.0, 0.0)
     _warm = True

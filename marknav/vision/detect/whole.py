@@ -32,7 +32,7 @@ from marknav.vision.detect.geometry import (
     _moments_ellipse,
     _paste,
 )
-from marknav.vision.detect.kernels import quadrants_differ
+from marknav.vision.detect.kernels import quadrants_differ, radius_range
 from marknav.vision.detect.model import Mark
 
 log = logging.getLogger("marknav.vision.detect")
@@ -75,11 +75,8 @@ class _WholeMarks(_ColourStage):
         e = _moments_ellipse(cv2.moments(contour))
         if e is None or e.minor < self.config.min_axis_ratio * 0.9 * e.major:
             return None
-        # Normalised radius of every contour point: (u/a)² + (v/b)² through one 2×2 product.
-        c, s = math.cos(e.theta), math.sin(e.theta)
-        to_unit = np.array([[c / e.a, -s / e.b], [s / e.a, c / e.b]])
-        q = (contour.reshape(-1, 2) - np.array([e.cx, e.cy])) @ to_unit
-        lo, hi, _, _ = cv2.minMaxLoc(np.einsum("ij,ij->i", q, q))
+        # Normalised radius of every contour point: (u/a)² + (v/b)².
+        lo, hi = radius_range(contour.reshape(-1, 2), e.cx, e.cy, e.a, e.b, e.theta)
         limit = max(tolerance_px, 0.09 * e.major) / math.sqrt(e.a * e.b)
         if math.sqrt(hi) > 1.0 + limit or math.sqrt(lo) < 1.0 - limit:
             return None
