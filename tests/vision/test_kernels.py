@@ -5,6 +5,10 @@ INTER_AREA rounds them, and the same gains as the chain of OpenCV calls they rep
 from __future__ import annotations
 
 import math
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -263,3 +267,26 @@ def test_radius_range_spans_the_points_normalised_radii() -> None:
                      for t in np.linspace(0, 2 * math.pi, 90)], np.int32)
     lo, hi = kernels.radius_range(ring, 0.0, 0.0, 20.0, 20.0, 0.0)  # a digital circle: ≈ 1
     assert 0.9 < lo <= 1.0 <= hi < 1.1
+
+
+def test_an_installation_without_a_writable_cache_still_detects(tmp_path: Path) -> None:
+    """Where numba can cache nowhere (a read-only install; simulated by allowing only the
+    IPython locator), the loops are compiled in the process instead of failing at import."""
+    frame = tmp_path / "frame.png"
+    from marknav.vision.bench import bench_frames
+
+    scene = bench_frames(1, 3)[0]
+    cv2.imwrite(str(frame), scene.image)
+    script = (
+        "import sys, cv2\n"
+        "from marknav.vision.detect import kernels\n"
+        "from marknav.vision.detect.detector import Detector\n"
+        "assert type(kernels.grey_sums._cache).__name__ == 'NullCache'\n"
+        "marks = Detector().detect(cv2.imread(sys.argv[1]))\n"
+        "print(len(marks))\n"
+    )
+    env = {**os.environ, "NUMBA_CACHE_LOCATOR_CLASSES": "IPythonCacheLocator"}
+    done = subprocess.run([sys.executable, "-c", script, str(frame)], env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert int(done.stdout.strip()) == len(Detector(DEFAULT_PALETTE).detect(scene.image)) > 0

@@ -38,11 +38,34 @@ set-up.
 
 from __future__ import annotations
 
+import logging
 import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 import numpy.typing as npt
 from numba import njit
+
+if TYPE_CHECKING:
+    from numba.core.dispatcher import Dispatcher
+
+log = logging.getLogger("marknav.vision.detect")
+
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def _compiled(fn: _F) -> Dispatcher[_F]:
+    """``fn`` compiled, its machine code cached beside this file (or in the user's cache
+    folder, or ``NUMBA_CACHE_DIR``). An installation where none of them can be written (a
+    read-only file system) compiles the loops once per process instead (≈ 3-5 s at set-up)."""
+    try:
+        compiled = njit(cache=True, nogil=True)(fn)
+    except RuntimeError as exc:  # numba: "cannot cache function …: no locator available"
+        log.info("compiled loops not cached (%s): compiling %s in this process", exc,
+                 fn.__name__)
+        compiled = njit(nogil=True)(fn)
+    return compiled
 
 __all__ = ["block_means", "circle_fit", "ellipse_rms", "grey_sums", "quadrants_differ",
            "radius_range", "saturation_rank", "true_runs", "warm_up"]
@@ -54,14 +77,14 @@ _SDIV[1:] = np.round((255 << _HSV_SHIFT) / np.arange(1, 256, dtype=np.float64)).
 _HALF = 1 << (_HSV_SHIFT - 1)
 
 
-@njit(cache=True, nogil=True)
+@_compiled
 def _saturation(b: int, g: int, r: int) -> tuple[int, int]:
     v = max(b, g, r)
     low = min(b, g, r)
     return ((v - low) * _SDIV[v] + _HALF) >> _HSV_SHIFT, v
 
 
-@njit(cache=True, nogil=True)
+@_compiled
 def block_means(image: npt.NDArray[np.uint8], ys: npt.NDArray[np.intp],
                 xs: npt.NDArray[np.intp], scale: int) -> npt.NDArray[np.uint8]:
     """Pixel (i, j) of the result: the mean of ``image``'s ``scale``×``scale`` block whose
@@ -90,7 +113,7 @@ def block_means(image: npt.NDArray[np.uint8], ys: npt.NDArray[np.intp],
     return out
 
 
-@njit(cache=True, nogil=True)
+@_compiled
 def saturation_rank(bgr: npt.NDArray[np.uint8], share: float) -> int:
     """The least saturation ``s`` (0..255) with at least ``share`` of the pixels at or below
     it; 256 if none (as ``np.searchsorted`` over the cumulative histogram)."""
@@ -109,7 +132,7 @@ def saturation_rank(bgr: npt.NDArray[np.uint8], share: float) -> int:
     return 256
 
 
-@njit(cache=True, nogil=True)
+@_compiled
 def grey_sums(bgr: npt.NDArray[np.uint8], gains: npt.NDArray[np.float32], s_max: int,
               v_min: int, v_max: int) -> tuple[int, float, float, float]:
     """How many pixels look grey once scaled by ``gains`` (B, G, R; ``float32``) —
@@ -137,7 +160,7 @@ def grey_sums(bgr: npt.NDArray[np.uint8], gains: npt.NDArray[np.float32], s_max:
 
 
 
-@njit(cache=True, nogil=True)
+@_compiled
 def circle_fit(pts: npt.NDArray[np.float64],
                want_span: bool) -> tuple[bool, float, float, float, float]:
     """(ok, cx, cy, r, span): the algebraic least-squares circle through ``pts`` (n × 2), in
@@ -188,7 +211,7 @@ def circle_fit(pts: npt.NDArray[np.float64],
     return True, cx, cy, r, span
 
 
-@njit(cache=True, nogil=True)
+@_compiled
 def ellipse_rms(pts: npt.NDArray[np.float64], cx: float, cy: float, a: float, b: float,
                 theta: float) -> float:
     """Root mean square of the points' signed distances from the ellipse (centre, semi-axes
@@ -214,7 +237,7 @@ def ellipse_rms(pts: npt.NDArray[np.float64], cx: float, cy: float, a: float, b:
     return math.sqrt(total / n)
 
 
-@njit(cache=True, nogil=True)
+@_compiled
 def radius_range(pts: npt.NDArray[np.int32], cx: float, cy: float, a: float, b: float,
                  theta: float) -> tuple[float, float]:
     """The least and the greatest squared normalised radius ``(u/a)² + (v/b)²`` of the points
@@ -235,7 +258,7 @@ def radius_range(pts: npt.NDArray[np.int32], cx: float, cy: float, a: float, b: 
     return lo, hi
 
 
-@njit(cache=True, nogil=True)
+@_compiled
 def true_runs(keep: npt.NDArray[np.bool_]) -> tuple[npt.NDArray[np.intp],
                                                      npt.NDArray[np.intp]]:
     """The maximal runs of True in the cyclic array ``keep``: ``(order, bounds)``, each run
@@ -266,7 +289,7 @@ def true_runs(keep: npt.NDArray[np.bool_]) -> tuple[npt.NDArray[np.intp],
     return order, bounds[:k]
 
 
-@njit(cache=True, nogil=True)
+@_compiled
 def quadrants_differ(roi: npt.NDArray[np.uint8], back: npt.NDArray[np.uint8], cx: int, cy: int,
                      spread: float) -> bool:
     """Whether two of the four quadrants about (``cx``, ``cy``) — rows ``[0, cy)`` / ``[cy, h)``
