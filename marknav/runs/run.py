@@ -215,7 +215,7 @@ def execute(req: RunRequest) -> RunResult:
                         else default_max_time_s(mission)),
             realtime=req.realtime, sleep=req.robot != "sim", observer=recorder,
         )
-        # The detector's compiled loops are loaded now (≈ 0.1 s once per process), before
+        # The detector's compiled loops are loaded now (≈ 0.1–0.3 s once per process), before
         # the clock starts: the first control cycle must not wait for them.
         from marknav.vision.detect.kernels import warm_up
 

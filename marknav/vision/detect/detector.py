@@ -83,7 +83,7 @@ class Detector(_ArcMarks):
         self.last_gains: tuple[float, float, float] = (1.0, 1.0, 1.0)
         self.last_grey_level: float = 0.0
         self._buffers = SearchBuffers()
-        warm_up()  # the compiled loops the white balance uses, loaded before the first frame
+        warm_up()  # the detector's compiled loops, loaded before the first frame
 
     def detect(self, image: U8Array) -> list[Mark]:
         """All marks in a BGR ``uint8`` image (H×W×3), largest first."""

@@ -50,6 +50,9 @@ from numba import njit
 if TYPE_CHECKING:
     from numba.core.dispatcher import Dispatcher
 
+__all__ = ["block_means", "circle_fit", "ellipse_rms", "grey_sums", "quadrants_differ",
+           "radius_range", "saturation_rank", "true_runs", "warm_up"]
+
 log = logging.getLogger("marknav.vision.detect")
 
 _F = TypeVar("_F", bound=Callable[..., Any])
@@ -58,7 +61,8 @@ _F = TypeVar("_F", bound=Callable[..., Any])
 def _compiled(fn: _F) -> Dispatcher[_F]:
     """``fn`` compiled, its machine code cached beside this file (or in the user's cache
     folder, or ``NUMBA_CACHE_DIR``). An installation where none of them can be written (a
-    read-only file system) compiles the loops once per process instead (≈ 3-5 s at set-up)."""
+    read-only file system) compiles the loops once per process instead (a few seconds at
+    set-up)."""
     try:
         compiled = njit(cache=True, nogil=True)(fn)
     except RuntimeError as exc:  # numba: "cannot cache function …: no locator available"
@@ -67,8 +71,6 @@ def _compiled(fn: _F) -> Dispatcher[_F]:
         compiled = njit(nogil=True)(fn)
     return compiled
 
-__all__ = ["block_means", "circle_fit", "ellipse_rms", "grey_sums", "quadrants_differ",
-           "radius_range", "saturation_rank", "true_runs", "warm_up"]
 
 _HSV_SHIFT = 12
 #: OpenCV's ``sdiv_table``: round(255·2¹² / v), 0 for v = 0.
