@@ -217,9 +217,12 @@ class Detector(_ArcMarks):
         for outline in joined:
             if len(outline) < 6 or cv2.contourArea(outline) < 2 * min_area:
                 continue
-            if sum(cv2.pointPolygonTest(outline, p, False) >= 0 for p in firsts) < 2:
+            inside = [c for c, p in zip(contours, firsts, strict=True)
+                      if cv2.pointPolygonTest(outline, p, False) >= 0]
+            if len(inside) < 2:
                 continue
-            whole = self._bridged_one(frame, outline, min_area)
+            whole = self._bridged_one(frame, outline, min_area) or \
+                self._without_bars(frame, inside, kernel, min_area)
             if whole:
                 marks.extend(whole)
                 continue
@@ -244,7 +247,59 @@ class Detector(_ArcMarks):
                     marks.extend(self._bridged_one(frame, shape, min_area))
         return marks
 
-    def _bridged_one(self, frame: _Frame, shape: Contour, min_area: float) -> list[Mark]:
+    def _bar_like(self, contour: Contour, area: float, scale: float) -> tuple[float, float]:
+        """The contour's minimum bounding rectangle's sides, or (-1, -1) when it is no mark's
+        piece (the cheap clutter rejection): slivers and stripes (a mark's visible part, even cut
+        by the image edge down to ``min_arc`` of its outline, is at least a quarter as wide as
+        long) and rectangles (they fill their minimum bounding rectangle)."""
+        cfg = self.config
+        _, (rw, rh), _ = cv2.minAreaRect(contour)
+        if (min(rw, rh) + 1.0) * scale < 1.2 * cfg.min_radius or \
+                min(rw, rh) < 0.3 * max(rw, rh):
+            return -1.0, -1.0
+        if area > cfg.max_extent * rw * rh and min(rw, rh) * scale >= 24.0:
+            return -1.0, -1.0
+        return rw, rh
+
+    def _without_bars(self, frame: _Frame, pieces: Sequence[Contour],
+                      kernel: Mat, min_area: float) -> list[Mark]:
+        """Whole marks from ``pieces`` (search-mask blobs that one closing joined) once the
+        pieces that are no mark's (:meth:`_bar_like`: stripes, bars, rectangles) are left out:
+        a mark cut into quarters by a pole and a wire, with bars of its colour within the
+        closing's reach, is joined without the bars."""
+        bars = [self._bar_like(p, cv2.contourArea(p), frame.sx)[0] < 0 for p in pieces]
+        kept = [p for p, bar in zip(pieces, bars, strict=True) if not bar]
+        if len(kept) < 2 or len(kept) == len(pieces):
+            return []
+        sh, sw = frame.mask.shape
+        k = kernel.shape[0]
+        x0, y0, bw, bh = cv2.boundingRect(np.concatenate(pieces))
+        x0, y0 = max(0, x0 - k), max(0, y0 - k)
+        x1, y1 = min(sw, x0 + bw + 2 * k), min(sh, y0 + bh + 2 * k)
+        joined = np.zeros((y1 - y0, x1 - x0), np.uint8)
+        cv2.drawContours(joined, kept, -1, 255, cv2.FILLED, offset=(-x0, -y0))
+        cv2.morphologyEx(joined, cv2.MORPH_CLOSE, kernel, dst=joined)
+        shapes, _ = cv2.findContours(joined, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
+                                     offset=(x0, y0))
+        # The bars' pixels (a search pixel around them, at full resolution) are no part of the
+        # mark's measurement either.
+        dropped = np.zeros_like(joined)
+        cv2.drawContours(dropped, [p for p, bar in zip(pieces, bars, strict=True) if bar], -1,
+                         255, cv2.FILLED, offset=(-x0, -y0))
+        dropped = cv2.dilate(dropped, self._kernel3)
+        scale = round(frame.sx)
+        full = cv2.resize(dropped, (dropped.shape[1] * scale, dropped.shape[0] * scale),
+                          interpolation=cv2.INTER_NEAREST)
+        exclude = (full, x0 * scale, y0 * scale)
+        marks: list[Mark] = []
+        for shape in shapes:
+            marks.extend(self._bridged_one(frame, shape, min_area, exclude))
+        return marks
+
+    def _bridged_one(self, frame: _Frame, shape: Contour, min_area: float,
+                     exclude: tuple[Mat, int, int] | None = None) -> list[Mark]:
+        """A closed shape of pieces read as one whole mark (``exclude``: full-resolution pixels
+        that are no part of it, and their origin)."""
         cfg = self.config
         sh, sw = frame.mask.shape
         if len(shape) < 6 or cv2.contourArea(shape) < min_area:
@@ -257,7 +312,7 @@ class Detector(_ArcMarks):
         coarse = self._whole_fit(shape, tolerance_px=2.5)
         if coarse is None:
             return []
-        mark = self._measure_whole(frame, self._to_full(frame, coarse), None, 1.0,
+        mark = self._measure_whole(frame, self._to_full(frame, coarse), None, 1.0, exclude,
                                    bridge_px=cfg.bridge_px)
         return [] if mark is None else [mark]
 
@@ -379,13 +434,8 @@ class Detector(_ArcMarks):
         box = (bx, by, bw, bh)
         sh, sw = frame.mask.shape
         border = bx <= 0 or by <= 0 or bx + bw >= sw or by + bh >= sh
-        _, (rw, rh), _ = cv2.minAreaRect(contour)
-        # Cheap clutter rejection: slivers and stripes (a mark's visible part, even cut by the
-        # image edge down to ``min_arc`` of its outline, is at least a quarter as wide as long),
-        # rectangles (they fill their minimum bounding rectangle).
-        if (min(rw, rh) + 1.0) * s < 1.2 * cfg.min_radius or min(rw, rh) < 0.3 * max(rw, rh):
-            return []
-        if area > cfg.max_extent * rw * rh and min(rw, rh) * s >= 24.0:
+        rw, rh = self._bar_like(contour, area, s)
+        if rw < 0:
             return []
         hull = cv2.convexHull(contour)
         hull_area = cv2.contourArea(hull)
