@@ -265,8 +265,8 @@ class Detector(_ArcMarks):
                       kernel: Mat, min_area: float) -> list[Mark]:
         """Whole marks from ``pieces`` (search-mask blobs that one closing joined) once the
         pieces that are no mark's (:meth:`_bar_like`: stripes, bars, rectangles) are left out:
-        a mark cut into quarters by a pole and a wire, with bars of its colour within the
-        closing's reach, is joined without the bars."""
+        a mark cut in pieces by a pole (or a pole and a wire), with bars of its colour within
+        the closing's reach, is joined without the bars."""
         bars = [self._bar_like(p, cv2.contourArea(p), frame.sx)[0] < 0 for p in pieces]
         kept = [p for p, bar in zip(pieces, bars, strict=True) if not bar]
         if len(kept) < 2 or len(kept) == len(pieces):
