@@ -206,6 +206,12 @@ def execute(req: RunRequest) -> RunResult:
     try:
         root = build_mission_tree(mission)
         keys.reset()
+        # The detector's compiled loops are loaded now (≈ 0.1–0.3 s once per process; the
+        # first compile ≈ 4 s), before the robot and the camera are opened and the clock
+        # starts: the first control cycle must not wait for them.
+        from marknav.vision.detect.kernels import warm_up
+
+        warm_up()
         env = make_environment(mission, req, seed)
         result = RunResult(report=report, environment=env)
         recorder = _recorder(req, root, env, events)
@@ -215,11 +221,6 @@ def execute(req: RunRequest) -> RunResult:
                         else default_max_time_s(mission)),
             realtime=req.realtime, sleep=req.robot != "sim", observer=recorder,
         )
-        # The detector's compiled loops are loaded now (≈ 0.1–0.3 s once per process), before
-        # the clock starts: the first control cycle must not wait for them.
-        from marknav.vision.detect.kernels import warm_up
-
-        warm_up()
         # A simulated run is lock-step on small arrays: one OpenCV thread is as fast and
         # leaves the other core free (:mod:`marknav.runs.cvthreads`).
         with one_opencv_thread() if req.robot == "sim" else contextlib.nullcontext():

@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 import cv2
+import numba
 import numpy as np
 import pytest
 
@@ -79,6 +80,11 @@ def test_balance_subsample_is_the_reduced_frame_sampled(shape: tuple[int, int],
     assert np.array_equal(balance_subsample(image, scale), want)
 
 
+def test_balance_subsample_needs_a_whole_block() -> None:
+    with pytest.raises(ValueError, match="no 2×2 block"):
+        balance_subsample(np.zeros((252, 1, 3), np.uint8), 2)
+
+
 def _opencv_balance(detector: Detector, tiny: np.ndarray) -> tuple[tuple[float, ...], float]:
     """The white balance as the chain of OpenCV calls the kernels replaced computed it."""
     gains: tuple[float, ...] = (1.0, 1.0, 1.0)
@@ -120,6 +126,17 @@ def test_white_balance_gives_the_opencv_chain_s_gains(tint_limit: float | None) 
     saturated = np.zeros((36, 48, 3), np.uint8)
     saturated[..., 2] = 200  # nothing grey: gains 1, the scene's mean level
     cases += [overexposed, saturated, rng.integers(0, 256, (36, 48, 3), np.uint8)]
+    # Subsample sizes whose 5 % threshold is a whole number of pixels (3×20: 3.0), where the
+    # threshold's rounding decides the branch: grey counts put on and around it.
+    for shape in ((3, 20), (6, 10), (4, 5), (5, 12)):
+        for greys in (-1, 0, 1):
+            n = shape[0] * shape[1]
+            tiny = np.zeros((*shape, 3), np.uint8)
+            tiny[...] = (20, 40, 220)  # saturated: not grey
+            flat = tiny.reshape(-1, 3)
+            k = max(0, round(0.05 * n) + greys)
+            flat[:k] = rng.integers(90, 160, (k, 1)) + rng.integers(-6, 7, (k, 3))
+            cases.append(tiny)
     for tiny in cases:
         got_gains, got_grey = detector.balance_sample(tiny)
         want_gains, want_grey = _opencv_balance(detector, tiny)
@@ -154,6 +171,35 @@ def _arc(rng: np.random.Generator, n: int, span_deg: float) -> np.ndarray:
     cx, cy, r = rng.uniform(-50, 50), rng.uniform(-50, 50), rng.uniform(5, 80)
     return np.column_stack([cx + r * np.cos(phi), cy + r * np.sin(phi)]) + \
         rng.normal(0, 0.3, (n, 2))
+
+
+def _gram_circle(pts: np.ndarray) -> tuple[float, float, float] | None:
+    """The Kåsa fit as the arc path made it before (session 5): one Gram matrix product."""
+    n = len(pts)
+    mean = pts.sum(axis=0) / n
+    cols = np.empty((n, 3), np.float64)
+    np.subtract(pts, mean, out=cols[:, :2])
+    u, v = cols[:, 0], cols[:, 1]
+    cols[:, 2] = u * u + v * v
+    (suu, suv, suw), (_, svv, svw), _ = (cols.T @ cols).tolist()
+    det = suu * svv - suv * suv
+    if abs(det) < 1e-9 * max(suu * svv, 1e-12):
+        return None
+    cx = (0.5 * suw * svv - 0.5 * svw * suv) / det
+    cy = (0.5 * svw * suu - 0.5 * suw * suv) / det
+    r = math.sqrt(cx * cx + cy * cy + (suu + svv) / n)
+    return cx + float(mean[0]), cy + float(mean[1]), r
+
+
+def test_circle_fit_is_the_gram_matrix_fit() -> None:
+    rng = np.random.default_rng(13)
+    for _ in range(300):
+        pts = _arc(rng, int(rng.integers(3, 300)), float(rng.uniform(20, 360)))
+        ok, cx, cy, r, _ = kernels.circle_fit(pts, False)
+        want = _gram_circle(pts)
+        assert ok == (want is not None)
+        if want is not None:
+            assert (cx, cy, r) == pytest.approx(want, rel=1e-9, abs=1e-9)
 
 
 def test_circle_fit_is_the_least_squares_circle_and_its_span() -> None:
@@ -220,6 +266,47 @@ def test_runs_are_the_cyclic_true_stretches() -> None:
     assert [r.tolist() for r in _runs(cases[3])] == [[3, 4, 0, 1]]
 
 
+def _integral_quadrants_differ(roi: np.ndarray, back: np.ndarray, cx: int, cy: int,
+                               spread: float) -> bool:
+    """The test as the whole-mark stage made it before (session 5): two integral images."""
+    h, w = roi.shape[:2]
+    count = cv2.integral(back, sdepth=cv2.CV_32S)
+    total = cv2.integral(cv2.bitwise_and(roi, roi, mask=back), sdepth=cv2.CV_32S)
+    chromas = []
+    for y0, y1, x0, x1 in ((0, cy, 0, cx), (0, cy, cx, w), (cy, h, 0, cx), (cy, h, cx, w)):
+        n = int(count[y1, x1] - count[y0, x1] - count[y1, x0] + count[y0, x0]) // 255
+        if n < 4:
+            continue
+        sums = total[y1, x1] - total[y0, x1] - total[y1, x0] + total[y0, x0]
+        inv = 1.0 / n
+        b, g, r = float(sums[0]) * inv, float(sums[1]) * inv, float(sums[2]) * inv
+        grey = (b + g + r) / 3.0
+        chromas.append((b - grey, g - grey, r - grey))
+    return any((a[0] - c[0]) ** 2 + (a[1] - c[1]) ** 2 + (a[2] - c[2]) ** 2 >= spread ** 2
+               for i, a in enumerate(chromas) for c in chromas[i + 1:])
+
+
+def test_quadrants_differ_is_the_integral_image_test() -> None:
+    rng = np.random.default_rng(12)
+    agree = {True: 0, False: 0}
+    for _ in range(400):
+        h, w = int(rng.integers(3, 40)), int(rng.integers(3, 40))
+        roi = np.clip(rng.normal(120, 30, (h, w, 1)) + rng.normal(0, 12, (h, w, 3)) +
+                      (rng.normal(0, 25, 3) if rng.random() < 0.5 else 0), 0, 255)
+        roi = roi.astype(np.uint8)
+        roi[: h // 2, : w // 2] = np.clip(roi[: h // 2, : w // 2] * rng.uniform(0.5, 1.5, 3),
+                                          0, 255)
+        back = np.where(rng.random((h, w)) < 0.7, 255, 0).astype(np.uint8)
+        cx, cy = int(rng.integers(1, w)), int(rng.integers(1, h))
+        want = _integral_quadrants_differ(roi, back, cx, cy, 15.0)
+        assert kernels.quadrants_differ(roi, back, cx, cy, 15.0) == want
+        agree[want] += 1
+    assert min(agree.values()) > 40  # both answers were exercised
+    with pytest.raises(ValueError, match="differ in size"):
+        kernels.quadrants_differ(np.zeros((4, 4, 3), np.uint8), np.zeros((4, 5), np.uint8),
+                                 1, 1, 15.0)
+
+
 @pytest.mark.parametrize("view", [False, True])
 def test_quadrants_differ_reads_the_background_of_each_quadrant(view: bool) -> None:
     roi = np.full((40, 40, 3), 120, np.uint8)
@@ -269,6 +356,8 @@ def test_radius_range_spans_the_points_normalised_radii() -> None:
     assert 0.9 < lo <= 1.0 <= hi < 1.1
 
 
+@pytest.mark.skipif(not hasattr(numba.core.config, "CACHE_LOCATOR_CLASSES"),
+                    reason="this numba cannot be told which cache locators to try")
 def test_an_installation_without_a_writable_cache_still_detects(tmp_path: Path) -> None:
     """Where numba can cache nowhere (a read-only install; simulated by allowing only the
     IPython locator), the loops are compiled in the process instead of failing at import."""

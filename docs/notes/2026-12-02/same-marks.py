@@ -79,6 +79,9 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         a = _calls(first, Path(tmp), data)
         b = _calls(second, Path(tmp), data)
+    if len(a) != len(b):
+        print(f"the commits made {len(a)} and {len(b)} detector calls: compared up to the first "
+              f"{min(len(a), len(b))}")
     differing = 0
     largest = 0.0
     for left, right in zip(a, b, strict=False):

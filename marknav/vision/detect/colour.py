@@ -100,6 +100,8 @@ def balance_subsample(image: U8Array | Mat, scale: int) -> Mat:
     reduced image, each the mean of its ``scale``×``scale`` block, rounded as ``INTER_AREA``
     rounds it) without reducing the frame."""
     h, w = image.shape[:2]
+    if h < scale or w < scale:
+        raise ValueError(f"a {w}×{h} image has no {scale}×{scale} block")
     ys, xs = _subsample_origins(h, w, scale)
     out: Mat = block_means(image, ys, xs, scale)
     return out
@@ -190,7 +192,7 @@ class _ColourStage(_DetectorBase):
         gains = (1.0, 1.0, 1.0)
         grey = -1.0
         s_max = min(160, max(60, saturation_rank(tiny, 0.4) + 25))
-        enough = 0.05 * tiny.shape[0] * tiny.shape[1]
+        enough = 0.05 * (tiny.shape[0] * tiny.shape[1])  # (as 0.05 * mask.size rounds it)
         seen_with = _UNIT_GAINS  # the gains the pixels' saturation is read after
         for attempt in range(2):
             count, sb, sg, sr = grey_sums(tiny, seen_with, s_max, 16, 250)

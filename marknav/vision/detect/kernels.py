@@ -299,6 +299,8 @@ def quadrants_differ(roi: npt.NDArray[np.uint8], back: npt.NDArray[np.uint8], cx
     ``back`` is set, quadrants of at least 4 such pixels) whose chroma (grey removed) lies
     ``spread`` or more apart."""
     h, w = back.shape
+    if roi.shape[0] != h or roi.shape[1] != w:
+        raise ValueError("quadrants_differ: roi and back differ in size")
     counts = np.zeros(4, np.int64)
     sums = np.zeros((4, 3), np.int64)
     for y in range(h):
