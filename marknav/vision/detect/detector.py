@@ -226,25 +226,41 @@ class Detector(_ArcMarks):
             if whole:
                 marks.extend(whole)
                 continue
-            x0, y0, bw, bh = cv2.boundingRect(outline)
-            if bw * bh > 0.3 * sw * sh:
-                continue  # a large region (a wall, the sky): not read colour by colour
-            x0, y0 = max(0, x0 - k), max(0, y0 - k)
-            x1, y1 = min(sw, x0 + bw + 2 * k), min(sh, y0 + bh + 2 * k)
-            mask = frame.mask[y0:y1, x0:x1]
-            labels = cv2.LUT(np.ascontiguousarray(frame.hsv[y0:y1, x0:x1, 0]), self._hue_lut)
-            for colour in range(len(self.palette)):
-                own = cv2.bitwise_and(cv2.inRange(labels, colour, colour), mask)
-                if cv2.countNonZero(own) < 2 * min_area:
-                    continue
-                n, _ = cv2.connectedComponents(own)
-                if n < 3:  # background and at least two pieces
-                    continue
-                shut = cv2.morphologyEx(own, cv2.MORPH_CLOSE, kernel)
-                shapes, _ = cv2.findContours(shut, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
-                                             offset=(x0, y0))
-                for shape in shapes:
-                    marks.extend(self._bridged_one(frame, shape, min_area))
+            marks.extend(self._per_colour_joined(frame, inside, kernel, min_area))
+        return marks
+
+    def _per_colour_joined(self, frame: _Frame, pieces: Sequence[Contour], kernel: Mat,
+                           min_area: float) -> list[Mark]:
+        """Each palette colour's pixels of ``pieces`` (search-mask blobs that one closing
+        joined) closed on their own, and each closed shape of two or more of its pieces tried
+        as one whole mark: a blue mark cut by a pole whose closing also took in a floor of
+        another palette colour. Pieces smaller than a quarter of a mark's least area cannot be
+        half of one and are left out (a wood floor breaks into hundreds of them)."""
+        pieces = [p for p in pieces if cv2.contourArea(p) >= 0.25 * min_area]
+        if len(pieces) < 2:
+            return []
+        sh, sw = frame.mask.shape
+        k = kernel.shape[0]
+        x0, y0, bw, bh = cv2.boundingRect(np.concatenate(pieces))
+        x0, y0 = max(0, x0 - k), max(0, y0 - k)
+        x1, y1 = min(sw, x0 + bw + 2 * k), min(sh, y0 + bh + 2 * k)
+        region = np.zeros((y1 - y0, x1 - x0), np.uint8)
+        cv2.drawContours(region, pieces, -1, 255, cv2.FILLED, offset=(-x0, -y0))
+        cv2.bitwise_and(region, frame.mask[y0:y1, x0:x1], dst=region)
+        labels = cv2.LUT(np.ascontiguousarray(frame.hsv[y0:y1, x0:x1, 0]), self._hue_lut)
+        marks: list[Mark] = []
+        for colour in range(len(self.palette)):
+            own = cv2.bitwise_and(cv2.inRange(labels, colour, colour), region)
+            if cv2.countNonZero(own) < 2 * min_area:
+                continue
+            n, _ = cv2.connectedComponents(own)
+            if n < 3:  # background and at least two pieces
+                continue
+            shut = cv2.morphologyEx(own, cv2.MORPH_CLOSE, kernel)
+            shapes, _ = cv2.findContours(shut, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
+                                         offset=(x0, y0))
+            for shape in shapes:
+                marks.extend(self._bridged_one(frame, shape, min_area))
         return marks
 
     def _bar_like(self, contour: Contour, area: float, scale: float) -> tuple[float, float]:
