@@ -226,27 +226,38 @@ class Detector(_ArcMarks):
             if whole:
                 marks.extend(whole)
                 continue
-            marks.extend(self._per_colour_joined(frame, inside, kernel, min_area))
+            x0, y0, bw, bh = cv2.boundingRect(outline)
+            if bw * bh > 0.3 * sw * sh:
+                # A large region (a floor, a wall, the sky): only the joined pieces are read
+                # colour by colour, not everything in its box (a blue mark cut by a pole and
+                # joined to a wood floor of another palette colour).
+                pieces = [p for p in inside if cv2.contourArea(p) >= 0.25 * min_area]
+                if len(pieces) < 2:
+                    continue
+                x0, y0, bw, bh = cv2.boundingRect(np.concatenate(pieces))
+                box = self._grown((x0, y0, bw, bh), k, sw, sh)
+                region = np.zeros((box[3] - box[1], box[2] - box[0]), np.uint8)
+                cv2.drawContours(region, pieces, -1, 255, cv2.FILLED, offset=(-box[0], -box[1]))
+                cv2.bitwise_and(region, frame.mask[box[1]:box[3], box[0]:box[2]], dst=region)
+            else:
+                box = self._grown((x0, y0, bw, bh), k, sw, sh)
+                region = frame.mask[box[1]:box[3], box[0]:box[2]]
+            marks.extend(self._colour_by_colour(frame, region, box, kernel, min_area))
         return marks
 
-    def _per_colour_joined(self, frame: _Frame, pieces: Sequence[Contour], kernel: Mat,
-                           min_area: float) -> list[Mark]:
-        """Each palette colour's pixels of ``pieces`` (search-mask blobs that one closing
-        joined) closed on their own, and each closed shape of two or more of its pieces tried
-        as one whole mark: a blue mark cut by a pole whose closing also took in a floor of
-        another palette colour. Pieces smaller than a quarter of a mark's least area cannot be
-        half of one and are left out (a wood floor breaks into hundreds of them)."""
-        pieces = [p for p in pieces if cv2.contourArea(p) >= 0.25 * min_area]
-        if len(pieces) < 2:
-            return []
-        sh, sw = frame.mask.shape
-        k = kernel.shape[0]
-        x0, y0, bw, bh = cv2.boundingRect(np.concatenate(pieces))
+    @staticmethod
+    def _grown(rect: Sequence[int], k: int, sw: int, sh: int) -> tuple[int, int, int, int]:
+        """(x0, y0, x1, y1): a bounding rectangle grown by ``k`` (search px) inside the image."""
+        x0, y0, bw, bh = rect
         x0, y0 = max(0, x0 - k), max(0, y0 - k)
-        x1, y1 = min(sw, x0 + bw + 2 * k), min(sh, y0 + bh + 2 * k)
-        region = np.zeros((y1 - y0, x1 - x0), np.uint8)
-        cv2.drawContours(region, pieces, -1, 255, cv2.FILLED, offset=(-x0, -y0))
-        cv2.bitwise_and(region, frame.mask[y0:y1, x0:x1], dst=region)
+        return x0, y0, min(sw, x0 + bw + 2 * k), min(sh, y0 + bh + 2 * k)
+
+    def _colour_by_colour(self, frame: _Frame, region: Mat, box: tuple[int, int, int, int],
+                          kernel: Mat, min_area: float) -> list[Mark]:
+        """Each palette colour's pixels of ``region`` (the search mask's pixels to read, in
+        ``box``) closed on their own; each closed shape made of two or more pieces is tried as
+        one whole mark."""
+        x0, y0, x1, y1 = box
         labels = cv2.LUT(np.ascontiguousarray(frame.hsv[y0:y1, x0:x1, 0]), self._hue_lut)
         marks: list[Mark] = []
         for colour in range(len(self.palette)):
@@ -288,10 +299,8 @@ class Detector(_ArcMarks):
         if len(kept) < 2 or len(kept) == len(pieces):
             return []
         sh, sw = frame.mask.shape
-        k = kernel.shape[0]
-        x0, y0, bw, bh = cv2.boundingRect(np.concatenate(pieces))
-        x0, y0 = max(0, x0 - k), max(0, y0 - k)
-        x1, y1 = min(sw, x0 + bw + 2 * k), min(sh, y0 + bh + 2 * k)
+        x0, y0, x1, y1 = self._grown(cv2.boundingRect(np.concatenate(pieces)), kernel.shape[0],
+                                     sw, sh)
         joined = np.zeros((y1 - y0, x1 - x0), np.uint8)
         cv2.drawContours(joined, kept, -1, 255, cv2.FILLED, offset=(-x0, -y0))
         cv2.morphologyEx(joined, cv2.MORPH_CLOSE, kernel, dst=joined)
@@ -299,7 +308,7 @@ class Detector(_ArcMarks):
                                      offset=(x0, y0))
         # The bars' pixels (a search pixel around them, at full resolution) are no part of the
         # mark's measurement either.
-        dropped = np.zeros_like(joined)
+        dropped: Mat = np.zeros_like(joined)
         cv2.drawContours(dropped, [p for p, bar in zip(pieces, bars, strict=True) if bar], -1,
                          255, cv2.FILLED, offset=(-x0, -y0))
         dropped = cv2.dilate(dropped, self._kernel3)
