@@ -230,19 +230,22 @@ class Detector(_ArcMarks):
             if bw * bh > 0.3 * sw * sh:
                 # A large region (a floor, a wall, the sky): only the joined pieces are read
                 # colour by colour, not everything in its box (a blue mark cut by a pole and
-                # joined to a wood floor of another palette colour).
+                # joined to a wood floor of another palette colour), and only marks large
+                # against the occluder count (≥ 3 × bridge_px): a shirt's small blue patches
+                # across its red stripes are no mark.
                 pieces = [p for p in inside if cv2.contourArea(p) >= 0.25 * min_area]
                 if len(pieces) < 2:
                     continue
-                x0, y0, bw, bh = cv2.boundingRect(np.concatenate(pieces))
-                box = self._grown((x0, y0, bw, bh), k, sw, sh)
+                box = self._grown(cv2.boundingRect(np.concatenate(pieces)), k, sw, sh)
                 region = np.zeros((box[3] - box[1], box[2] - box[0]), np.uint8)
                 cv2.drawContours(region, pieces, -1, 255, cv2.FILLED, offset=(-box[0], -box[1]))
                 cv2.bitwise_and(region, frame.mask[box[1]:box[3], box[0]:box[2]], dst=region)
+                found = self._colour_by_colour(frame, region, box, kernel, min_area)
+                marks.extend(m for m in found if m.radius >= 3.0 * cfg.bridge_px)
             else:
                 box = self._grown((x0, y0, bw, bh), k, sw, sh)
                 region = frame.mask[box[1]:box[3], box[0]:box[2]]
-            marks.extend(self._colour_by_colour(frame, region, box, kernel, min_area))
+                marks.extend(self._colour_by_colour(frame, region, box, kernel, min_area))
         return marks
 
     @staticmethod
