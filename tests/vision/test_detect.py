@@ -446,3 +446,18 @@ def test_sim_frame_mark_cut_by_a_pole_below_bars_of_its_colour() -> None:
     (red,) = [m for m in CameraDetector.for_mission(mission).detect(image) if m.colour == "red"]
     assert red.x == pytest.approx(345.1, abs=4.0)  # the simulator's projected centre
     assert sim_range_mm(red.radius) == pytest.approx(1028.0, rel=0.03)
+
+
+def test_sim_frame_mark_cut_by_a_pole_beside_a_floor_of_another_colour() -> None:
+    """Slalom seed 54, frame 890 (cropped to x 280-600, y 100-400): a blue mark 1006 mm ahead
+    is cut in two by a pole; its halves touch an orange wood floor that the search mask keeps
+    (red's hues). The closing joined them with the floor into one region too large to be read
+    colour by colour, so the mark was lost in a search turn. Now the region's own pieces are
+    read colour by colour (marks large against the occluder only)."""
+    from marknav.missions.schema import load_mission
+
+    mission = load_mission(Path(__file__).resolve().parents[2] / "missions" / "slalom.yaml")
+    image = cv2.imread(str(SIM_FRAMES / "seed54-pole-floor.png"))
+    (blue,) = [m for m in Detector(mission.palette()).detect(image) if m.colour == "blue"]
+    assert blue.x + 280 == pytest.approx(429.1, abs=4.0)  # the simulator's projected centre
+    assert sim_range_mm(blue.radius) == pytest.approx(1006.0, rel=0.03)
