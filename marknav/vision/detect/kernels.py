@@ -161,7 +161,6 @@ def grey_sums(bgr: npt.NDArray[np.uint8], gains: npt.NDArray[np.float32], s_max:
     return count, float(sb), float(sg), float(sr)
 
 
-
 @_compiled
 def circle_fit(pts: npt.NDArray[np.float64],
                want_span: bool) -> tuple[bool, float, float, float, float]:
