@@ -48,6 +48,8 @@ from marknav.clock import Clock
 from marknav.planning.kinematics import Pose
 from marknav.sim.camera_model import SIM_FOCAL_PX, SIM_HEIGHT, SIM_WIDTH, sim_range_law
 from marknav.sim.lens import LensWarp, lens_warp
+from marknav.sim.projection import RIM_POINTS, MarkGeometry, ProjectedMark, inset
+from marknav.sim.projection import warm_up as _warm_projection
 from marknav.sim.scenery import draw_poles, near_hues, paint_distractors, paint_room, poles
 from marknav.sim.world import Background, ClutterItem, Conditions, World, clutter_items
 from marknav.vision.estimate import PowerLaw
@@ -69,8 +71,6 @@ __all__ = [
 
 FloatArray = npt.NDArray[np.float64]
 
-#: Points on a mark's rim; with the area-matched radius the polygon's area equals the disc's.
-RIM_POINTS = 96
 #: How far OpenCV's anti-aliased fill reaches beyond a polygon's edge (measured, OpenCV 4.x/5.0).
 AA_EDGE_BIAS_PX = 0.6
 _SHIFT = 8  # fixed-point bits for cv2.fillPoly
@@ -131,164 +131,10 @@ def mark_bgr(colour: ColourRange) -> tuple[float, float, float]:
 # --- geometry ---------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
-class ProjectedMark:
-    """A mark as the camera sees it: ``polygon`` is its rim in pixels (u right, v down), clipped
-    at the near plane; (u, v) is the projection of its centre; ``depth_mm`` the centre's distance
-    along the camera axis."""
-
-    index: int
-    depth_mm: float
-    u: float
-    v: float
-    polygon: FloatArray
-
-    @functools.cached_property
-    def bbox(self) -> tuple[float, float, float, float]:
-        """(u_min, v_min, u_max, v_max) of the rim (computed once: the renderer and the
-        visibility test both ask)."""
-        lo = self.polygon.min(axis=0)
-        hi = self.polygon.max(axis=0)
-        return (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
-
-    def inside(self, config: CameraConfig, margin_px: float = 0.0) -> bool:
-        """Whether the whole rim lies in the image, ``margin_px`` from its edges."""
-        u0, v0, u1, v1 = self.bbox
-        return (u0 >= margin_px and v0 >= margin_px and u1 <= config.width - 1 - margin_px
-                and v1 <= config.height - 1 - margin_px)
-
-    def visible(self, config: CameraConfig) -> bool:
-        """Whether any of the rim's box overlaps the image."""
-        u0, v0, u1, v1 = self.bbox
-        return u1 >= -0.5 and v1 >= -0.5 and u0 <= config.width - 0.5 and v0 <= config.height - 0.5
-
-
-class _MarkGeometry:
-    """The marks' rims in world coordinates (x, y, height above the camera), computed once."""
-
-    def __init__(self, world: World) -> None:
-        n = RIM_POINTS
-        phi = np.linspace(0.0, 2.0 * math.pi, n, endpoint=False)
-        # Area-matched polygon: (n/2)·ρ²·sin(2π/n) = π·R².
-        k = math.sqrt((2.0 * math.pi / n) / math.sin(2.0 * math.pi / n))
-        rims = np.empty((len(world.marks), n, 3))
-        centres = np.empty((len(world.marks), 2))
-        for j, m in enumerate(world.marks):
-            r = m.radius() * k
-            ax, ay = math.cos(m.yaw_rad), math.sin(m.yaw_rad)  # in-plane horizontal axis
-            rims[j, :, 0] = m.x_mm + r * np.cos(phi) * ax
-            rims[j, :, 1] = m.y_mm + r * np.cos(phi) * ay
-            rims[j, :, 2] = r * np.sin(phi)
-            centres[j] = m.xy
-        self.rims = rims
-        self.centres = centres
-        self.radii = np.array([m.radius() for m in world.marks])
-
-    def project(self, pose: Pose, config: CameraConfig) -> list[ProjectedMark]:
-        if len(self.centres) == 0:
-            return []
-        c, s = math.cos(pose.theta), math.sin(pose.theta)
-        ox = pose.x + config.forward_offset_mm * c
-        oy = pose.y + config.forward_offset_mm * s
-        # Camera frame: Z forward (heading), X right (heading − 90°), Y down.
-        dcx = self.centres[:, 0] - ox
-        dcy = self.centres[:, 1] - oy
-        zc = dcx * c + dcy * s
-        keep = np.nonzero(zc + self.radii > config.near_mm)[0]
-        if len(keep) == 0:
-            return []
-        out: list[ProjectedMark] = []
-        f, cx, cy = config.focal_px, config.cx, config.cy
-        # Every kept rim at once (the same element-wise arithmetic as one rim at a time); a
-        # rim crossing the near plane is clipped and projected again on its own below.
-        rims = self.rims[keep]
-        dx = rims[:, :, 0] - ox
-        dy = rims[:, :, 1] - oy
-        zs = dx * c + dy * s
-        xs = dx * s - dy * c
-        ys = -rims[:, :, 2]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            us = cx + f * xs / zs
-            vs = cy + f * ys / zs
-        # Whole rims (in front of the near plane): boxes and the visibility test at once.
-        whole = zs.min(axis=1) > config.near_mm
-        u_lo, u_hi = us.min(axis=1), us.max(axis=1)
-        v_lo, v_hi = vs.min(axis=1), vs.max(axis=1)
-        shown = ((u_hi >= -0.5) & (v_hi >= -0.5) & (u_lo <= config.width - 0.5)
-                 & (v_lo <= config.height - 0.5))
-        for row, j in enumerate(keep.tolist()):
-            if not whole[row]:
-                pts = _clip_near(np.stack([xs[row], ys[row], zs[row]], axis=1), config.near_mm)
-                if len(pts) < 3:
-                    continue
-                x, y, z = pts[:, 0], pts[:, 1], pts[:, 2]
-                poly = np.stack([cx + f * x / z, cy + f * y / z], axis=1)
-                bbox = None
-            elif shown[row]:
-                poly = np.stack([us[row], vs[row]], axis=1)
-                bbox = (float(u_lo[row]), float(v_lo[row]), float(u_hi[row]), float(v_hi[row]))
-            else:
-                continue
-            zj = float(zc[j])
-            xj = float(dcx[j] * s - dcy[j] * c)
-            u = cx + f * xj / zj if zj > config.near_mm else math.nan
-            v = cy if zj > config.near_mm else math.nan
-            pm = ProjectedMark(index=j, depth_mm=zj, u=u, v=v, polygon=poly)
-            if bbox is not None:
-                pm.__dict__["bbox"] = bbox  # the cached_property's value, already known
-            elif not pm.visible(config):
-                continue
-            out.append(pm)
-        out.sort(key=lambda p: -p.depth_mm)  # painter's order: far to near
-        return out
-
-
-def _clip_near(pts: FloatArray, near: float) -> FloatArray:
-    """Sutherland–Hodgman clip of a closed 3-D polygon to z ≥ near: for each edge a → b, a if
-    it is in front, then the edge's crossing of the plane if it crosses (all edges at once)."""
-    nxt = np.roll(pts, -1, axis=0)
-    a_in = pts[:, 2] >= near
-    cross = a_in != (nxt[:, 2] >= near)
-    a, b = pts[cross], nxt[cross]
-    t = (near - a[:, 2]) / (b[:, 2] - a[:, 2])
-    crossings = a + t[:, None] * (b - a)
-    # Output order: vertex i (slot 2i), then the crossing of edge i (slot 2i + 1).
-    slots = np.concatenate([2 * np.nonzero(a_in)[0], 2 * np.nonzero(cross)[0] + 1])
-    return np.concatenate([pts[a_in], crossings])[np.argsort(slots)]
-
-
 def project_marks(world: World, pose: Pose, config: CameraConfig = CameraConfig()) -> list[
         ProjectedMark]:
     """The marks the camera at ``pose`` sees (any part in the image), far to near."""
-    return _MarkGeometry(world).project(pose, config)
-
-
-@functools.lru_cache(maxsize=64)
-def _neighbours(n: int) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
-    idx = np.arange(n)
-    return np.roll(idx, -1), np.roll(idx, 1)
-
-
-def _shrink(poly: FloatArray, by: float) -> FloatArray:
-    """Move a convex polygon's vertices inward by ``by`` px (limited for very thin polygons)."""
-    i_next, i_prev = _neighbours(len(poly))
-    nxt = poly[i_next]
-    prv = poly[i_prev]
-    x, y = poly[:, 0], poly[:, 1]
-    area2 = float(np.dot(x, nxt[:, 1]) - np.dot(nxt[:, 0], y))
-    if area2 == 0.0:
-        return poly
-    edges = nxt - poly
-    perimeter = float(np.sum(np.sqrt(np.einsum("ij,ij->i", edges, edges))))
-    by = min(by, 0.25 * abs(area2) / perimeter)  # 0.25·2A/P = half the mean half-width
-    t = nxt - prv
-    norm = np.sqrt(np.einsum("ij,ij->i", t, t))
-    norm[norm == 0] = 1.0
-    k = math.copysign(by, area2) / norm
-    out = poly.copy()
-    out[:, 0] -= t[:, 1] * k
-    out[:, 1] += t[:, 0] * k
-    return out
+    return MarkGeometry(world).project(pose, config)
 
 
 # --- background -------------------------------------------------------------------------------
@@ -445,7 +291,8 @@ class Renderer:
                 )
             bgr = np.minimum(np.array(mark_bgr(by_name[m.colour])) * gains, 255.0)
             self._colours.append((float(bgr[0]), float(bgr[1]), float(bgr[2])))
-        self._geometry = _MarkGeometry(world)
+        self._geometry = MarkGeometry(world)
+        _warm_projection()  # its compiled loops, loaded now rather than in the first frame
         cond = world.conditions
         ranges = tuple((c.hue_lo, c.hue_hi) for c in palette)
         pan = _panorama(world.background, cond.channel_gains_bgr(), canvas, _room(cond),
@@ -499,7 +346,7 @@ class Renderer:
 
     def _draw(self, img: Image, marks: list[ProjectedMark], du: float, dv: float) -> None:
         for pm in marks:
-            poly = _shrink(pm.polygon, AA_EDGE_BIAS_PX)
+            poly = inset(np.ascontiguousarray(pm.polygon), AA_EDGE_BIAS_PX)
             if du or dv:
                 poly = poly - (du, dv)
             pts = np.round(poly * (1 << _SHIFT)).astype(np.int32)

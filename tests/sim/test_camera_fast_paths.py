@@ -15,7 +15,8 @@ import numpy.typing as npt
 import pytest
 
 from marknav.planning.kinematics import Pose
-from marknav.sim.camera import CameraConfig, Renderer, _clip_near, _MarkGeometry
+from marknav.sim.camera import CameraConfig, Renderer
+from marknav.sim.projection import MarkGeometry, clip_near, inset
 from marknav.sim.render_bench import example_poses, example_renderer
 from marknav.sim.world import Background, Conditions, MarkSpec, World
 from marknav.vision.palette import ColourRange
@@ -40,7 +41,7 @@ def reference_clip(pts: FloatArray, near: float) -> FloatArray:
     return np.array(out) if out else np.empty((0, 3))
 
 
-def reference_polygons(geometry: _MarkGeometry, pose: Pose,
+def reference_polygons(geometry: MarkGeometry, pose: Pose,
                        config: CameraConfig) -> list[tuple[int, FloatArray]]:
     """Each mark in front projected on its own, as the renderer did before."""
     c, s = math.cos(pose.theta), math.sin(pose.theta)
@@ -72,7 +73,7 @@ def test_near_plane_clip_is_the_edge_by_edge_clip() -> None:
         pts[:, 2] += rng.uniform(-150, 150)
         if rng.random() < 0.1:
             pts[int(rng.integers(n)), 2] = 10.0  # a vertex exactly on the plane
-        fast, slow = _clip_near(pts, 10.0), reference_clip(pts, 10.0)
+        fast, slow = clip_near(pts, 10.0), reference_clip(pts, 10.0)
         assert fast.shape == slow.shape and np.array_equal(fast, slow)
 
 
@@ -83,7 +84,7 @@ def test_projection_of_all_rims_at_once_is_bitwise_the_same() -> None:
                            yaw_deg=float(rng.uniform(-80, 80)), radius_mm=100.0)
                   for _ in range(12))
     world = World(marks=marks, conditions=Conditions(noise_sigma=0.0))
-    geometry = _MarkGeometry(world)
+    geometry = MarkGeometry(world)
     config = CameraConfig(forward_offset_mm=50.0)
     seen = clipped = 0
     for _ in range(300):
@@ -143,3 +144,56 @@ def test_noisy_frames_with_poles_still_take_the_plain_path() -> None:
     expected = np.clip(renderer.render(pose).astype(int) + pos[oy:oy + 480, ox:ox + 640]
                        - neg[oy:oy + 480, ox:ox + 640], 0, 255)
     assert np.array_equal(renderer.render(pose, np.random.default_rng(1)), expected)
+
+
+def reference_inset(poly: FloatArray, by: float) -> FloatArray:
+    """The NumPy inset the renderer used before (session 6)."""
+    n = len(poly)
+    nxt, prv = poly[np.roll(np.arange(n), -1)], poly[np.roll(np.arange(n), 1)]
+    x, y = poly[:, 0], poly[:, 1]
+    area2 = float(np.dot(x, nxt[:, 1]) - np.dot(nxt[:, 0], y))
+    if area2 == 0.0:
+        return poly
+    edges = nxt - poly
+    perimeter = float(np.sum(np.sqrt(np.einsum("ij,ij->i", edges, edges))))
+    by = min(by, 0.25 * abs(area2) / perimeter)
+    t = nxt - prv
+    norm = np.sqrt(np.einsum("ij,ij->i", t, t))
+    norm[norm == 0] = 1.0
+    k = math.copysign(by, area2) / norm
+    out = poly.copy()
+    out[:, 0] -= t[:, 1] * k
+    out[:, 1] += t[:, 0] * k
+    return out
+
+
+def test_the_compiled_inset_is_the_numpy_inset() -> None:
+    """The same vertices to the last bits that the fill's fixed point (1/256 px) could see:
+    the sums run in another order, nothing else differs."""
+    rng = np.random.default_rng(11)
+    geometry = MarkGeometry(World(marks=tuple(
+        MarkSpec(colour="red", x_mm=-1500.0 + 260.0 * i, y_mm=float(rng.uniform(200, 3000)),
+                 yaw_deg=float(rng.uniform(-89, 89)), radius_mm=100.0) for i in range(12))))
+    config = CameraConfig(forward_offset_mm=50.0)
+    polygons = []
+    for _ in range(200):
+        pose = Pose(float(rng.uniform(-800, 800)), float(rng.uniform(-300, 1500)),
+                    float(rng.uniform(-math.pi, math.pi)))
+        polygons += [pm.polygon for pm in geometry.project(pose, config)]
+    phi = np.linspace(0.0, 2.0 * math.pi, 96, endpoint=False)
+    for _ in range(100):  # marks seen almost edge-on: the inset is limited by their width
+        a, b, t = rng.uniform(5, 60), rng.uniform(0.2, 2.0), rng.uniform(0, math.pi)
+        u, v = a * np.cos(phi), b * np.sin(phi)
+        polygons.append(np.stack([rng.uniform(0, 640) + u * math.cos(t) - v * math.sin(t),
+                                  rng.uniform(0, 480) + u * math.sin(t) + v * math.cos(t)],
+                                 axis=1))
+    same = 0
+    for poly in polygons:
+        got, want = inset(poly, 0.6), reference_inset(poly, 0.6)
+        assert got.shape == want.shape
+        assert np.allclose(got, want, rtol=0.0, atol=1e-9)
+        assert np.array_equal(np.round(got * 256), np.round(want * 256))
+        same += bool(np.array_equal(got, want))
+    assert len(polygons) > 300 and same > 0.75 * len(polygons)  # the thin ones: last bits
+    flat = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])  # no area: unchanged
+    assert np.array_equal(inset(flat, 0.6), flat)

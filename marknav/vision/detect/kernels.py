@@ -38,38 +38,15 @@ set-up.
 
 from __future__ import annotations
 
-import logging
 import math
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 import numpy.typing as npt
-from numba import njit
 
-if TYPE_CHECKING:
-    from numba.core.dispatcher import Dispatcher
+from marknav.compiled import compiled as _compiled
 
 __all__ = ["block_means", "circle_fit", "ellipse_rms", "grey_sums", "quadrants_differ",
            "radius_range", "saturation_rank", "true_runs", "warm_up"]
-
-log = logging.getLogger("marknav.vision.detect")
-
-_F = TypeVar("_F", bound=Callable[..., Any])
-
-
-def _compiled(fn: _F) -> Dispatcher[_F]:
-    """``fn`` compiled, its machine code cached beside this file (or in the user's cache
-    folder, or ``NUMBA_CACHE_DIR``). An installation where none of them can be written (a
-    read-only file system) compiles the loops once per process instead (a few seconds at
-    set-up)."""
-    try:
-        compiled = njit(cache=True, nogil=True)(fn)
-    except RuntimeError as exc:  # numba: "cannot cache function …: no locator available"
-        log.info("compiled loops not cached (%s): compiling %s in this process", exc,
-                 fn.__name__)
-        compiled = njit(nogil=True)(fn)
-    return compiled
 
 
 _HSV_SHIFT = 12
