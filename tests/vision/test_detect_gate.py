@@ -8,7 +8,7 @@ import numpy as np
 
 from marknav.vision.bench import SceneSpec, render_scene
 from marknav.vision.detect import Detector, DetectorConfig, Mark
-from marknav.vision.detect.gate import SearchBuffers, coarse_sample, search_products
+from marknav.vision.detect.gate import SearchBuffers, search_products
 from marknav.vision.palette import DEFAULT_PALETTE
 
 SCENES = SceneSpec(width=640, height=480, n_marks=3, radius=(6.0, 150.0), ellipse_share=0.3,
@@ -41,7 +41,7 @@ def test_the_gate_searches_a_small_share_of_a_frame_with_a_few_marks() -> None:
     image = render_scene(rng, SceneSpec(n_marks=3, n_clutter=0)).image
     det = Detector(DEFAULT_PALETTE)
     det.detect(image)  # the gate's tables and buffers
-    products = search_products(image, (320, 240), 2, coarse_sample(image), None,
+    products = search_products(image, (320, 240), 2, True, None,
                                None, det._sat_min, 40, det._gate_lut, det._kernel,
                                SearchBuffers())
     assert products.boxes is not None and 1 <= len(products.boxes) <= 6

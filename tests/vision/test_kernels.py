@@ -379,3 +379,51 @@ def test_an_installation_without_a_writable_cache_still_detects(tmp_path: Path) 
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert int(done.stdout.strip()) == len(Detector(DEFAULT_PALETTE).detect(scene.image)) > 0
+
+
+# --- the coarse gate's seeds --------------------------------------------------------------------
+
+
+def _opencv_seeds(image: np.ndarray, gains: tuple[float, float, float], sat_min: int,
+                  v_floor: int, gate: np.ndarray) -> np.ndarray:
+    """The gate's seeds as OpenCV calls made them (session 6)."""
+    h, w = image.shape[:2]
+    sample = cv2.resize(image, (w // 4, h // 4), interpolation=cv2.INTER_LINEAR)
+    if gains != (1.0, 1.0, 1.0):
+        sample = cv2.transform(sample, _diagonal(gains))
+    hsv = cv2.cvtColor(sample, cv2.COLOR_BGR2HSV)
+    seeds = cv2.inRange(hsv, (0, sat_min, v_floor), (255, 255, 255))
+    return cv2.bitwise_and(seeds, cv2.LUT(np.ascontiguousarray(hsv[:, :, 0]), gate))
+
+
+@pytest.mark.parametrize("gains", [(1.0, 1.0, 1.0), (1.23, 0.91, 0.77), (0.6, 1.0, 1.6)])
+def test_coarse_seeds_match_opencv_on_every_colour(every_colour: np.ndarray,
+                                                   gains: tuple[float, float, float]) -> None:
+    """Every colour as a uniform 4×4 block (so the sample is the colour itself); the gate lets
+    every other hue through, so that a hue off by one would show."""
+    gate = np.where(np.arange(256) % 2 == 0, 255, 0).astype(np.uint8)
+    for rows in range(0, 4096, 512):
+        slab = np.repeat(np.repeat(every_colour[rows:rows + 512], 4, axis=0), 4, axis=1)
+        got = kernels.coarse_seeds(slab, np.array(gains, np.float32), 60, 40, gate)
+        assert np.array_equal(got, _opencv_seeds(slab, gains, 60, 40, gate)), rows
+
+
+def test_coarse_seeds_match_opencv_on_random_frames() -> None:
+    """The block means' rounding, frame sizes, thresholds and gates."""
+    rng = np.random.default_rng(21)
+    for _ in range(60):
+        h, w = 4 * int(rng.integers(1, 130)), 4 * int(rng.integers(1, 170))
+        image = rng.integers(0, 256, (h + 5, w + 7, 3), np.uint8)
+        if rng.random() < 0.5:  # smooth patches, as in photographs
+            image = cv2.GaussianBlur(image, (0, 0), float(rng.uniform(0.5, 4.0)))
+        # a frame, a region of a larger one, or a read-only frame (a camera's buffer)
+        image = image[:h, :w].copy() if rng.random() < 0.4 else image[2:2 + h, 3:3 + w]
+        if rng.random() < 0.3:
+            image.setflags(write=False)
+        b, g, r = (float(x) for x in rng.uniform(0.6, 1.6, 3))
+        gains = (b, g, r) if rng.random() < 0.7 else (1.0, 1.0, 1.0)
+        gate = np.where(rng.random(256) < 0.4, 255, 0).astype(np.uint8)
+        sat_min, v_floor = int(rng.integers(0, 256)), int(rng.integers(0, 256))
+        got = kernels.coarse_seeds(image, np.array(gains, np.float32), sat_min, v_floor, gate)
+        want = _opencv_seeds(image, gains, sat_min, v_floor, gate)
+        assert np.array_equal(got, want), (h, w, gains, sat_min, v_floor)

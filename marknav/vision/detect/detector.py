@@ -24,7 +24,7 @@ from marknav.vision.detect.arcs import _ArcMarks
 from marknav.vision.detect.base import _Frame
 from marknav.vision.detect.colour import _NO_COLOUR, _diagonal, balance_subsample
 from marknav.vision.detect.faint import chroma_contrast
-from marknav.vision.detect.gate import SearchBuffers, coarse_sample, search_products
+from marknav.vision.detect.gate import SearchBuffers, search_products
 from marknav.vision.detect.geometry import (
     Contour,
     Mat,
@@ -99,10 +99,9 @@ class Detector(_ArcMarks):
         sw, sh = (w // scale, h // scale) if scale > 1 else (w, h)
         # The coarse gate (:mod:`.gate`) needs marks of at least 4 px radius and the
         # half-resolution search it narrows down.
-        coarse = coarse_sample(image) if cfg.coarse_gate and scale > 1 and \
-            cfg.min_radius >= 4.0 else None
+        gated = cfg.coarse_gate and scale > 1 and cfg.min_radius >= 4.0
         whole = None
-        if coarse is None and scale > 1:
+        if not gated and scale > 1:
             # Whole search pixels only (an odd last row/column is left out), so that each is
             # the mean of its 2×2 block, as in the coarse gate's rectangles.
             whole = cv2.resize(image[:sh * scale, :sw * scale], (sw, sh),
@@ -115,7 +114,7 @@ class Detector(_ArcMarks):
         self.last_gains, self.last_grey_level = gains, grey
         balance = _diagonal(gains) if max(abs(g - 1.0) for g in gains) > 0.02 else None
         v_floor = self._value_floor(grey)
-        products = search_products(image, (sw, sh), scale, coarse, whole, balance, self._sat_min,
+        products = search_products(image, (sw, sh), scale, gated, whole, balance, self._sat_min,
                                    v_floor, self._gate_lut if cfg.hue_gate else None,
                                    self._kernel if cfg.open_size > 1 else None,
                                    self._buffers, self._horizon_band(h, scale))

@@ -21,6 +21,10 @@ Saturation and value are OpenCV's 8-bit ``COLOR_BGR2HSV`` ones exactly: ``V = ma
 rounded half to even, saturated). ``tests/vision/test_kernels.py`` checks both against OpenCV
 on every 8-bit colour.
 
+The coarse gate (:mod:`.gate`): :func:`coarse_seeds` — the quarter-resolution sample, its
+white balance, HSV and the search thresholds in one pass (the hue as OpenCV's ``hdiv_table``
+gives it; checked on every 8-bit colour too).
+
 The arc path and the whole-mark measurement:
 
 - :func:`circle_fit` — the algebraic (Kåsa) least-squares circle through contour points and the
@@ -45,8 +49,8 @@ import numpy.typing as npt
 
 from marknav.compiled import compiled as _compiled
 
-__all__ = ["block_means", "circle_fit", "ellipse_rms", "grey_sums", "quadrants_differ",
-           "radius_range", "saturation_rank", "true_runs", "warm_up"]
+__all__ = ["block_means", "circle_fit", "coarse_seeds", "ellipse_rms", "grey_sums",
+           "quadrants_differ", "radius_range", "saturation_rank", "true_runs", "warm_up"]
 
 
 _HSV_SHIFT = 12
@@ -54,6 +58,10 @@ _HSV_SHIFT = 12
 _SDIV = np.zeros(256, np.int64)
 _SDIV[1:] = np.round((255 << _HSV_SHIFT) / np.arange(1, 256, dtype=np.float64)).astype(np.int64)
 _HALF = 1 << (_HSV_SHIFT - 1)
+#: OpenCV's ``hdiv_table`` for hues 0..179: round(180·2¹² / (6·d)), 0 for d = 0.
+_HDIV = np.zeros(256, np.int64)
+_HDIV[1:] = np.round((180 << _HSV_SHIFT) / (6.0 * np.arange(1, 256, dtype=np.float64))
+                     ).astype(np.int64)
 
 
 @_compiled
@@ -313,24 +321,72 @@ def quadrants_differ(roi: npt.NDArray[np.uint8], back: npt.NDArray[np.uint8], cx
 
 _warm = False
 
+@_compiled
+def coarse_seeds(image: npt.NDArray[np.uint8], gains: npt.NDArray[np.float32], sat_min: int,
+                 v_floor: int, gate: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
+    """The coarse gate's seeds of a frame whose sides are multiples of 4: per 4×4 block the
+    rounded mean of its central 2×2 pixels (``cv2.resize`` to a quarter with ``INTER_LINEAR``),
+    scaled by ``gains`` (B, G, R, ``float32``; as ``cv2.transform`` with their diagonal matrix),
+    255 where OpenCV's 8-bit HSV of it has S ≥ ``sat_min``, V ≥ ``v_floor`` and
+    ``gate[H] != 0``, else 0. One pass instead of a resize and five calls on the sample."""
+    scaled = np.empty((3, 256), np.int64)
+    for c in range(3):
+        for value in range(256):
+            scaled[c, value] = min(255, int(np.rint(np.float32(value) * gains[c])))
+    rows, cols = image.shape[0] // 4, image.shape[1] // 4
+    out = np.zeros((rows, cols), np.uint8)
+    for y in range(rows):
+        top = image[4 * y + 1]
+        bottom = image[4 * y + 2]
+        for x in range(cols):
+            i = 4 * x + 1
+            b = scaled[0, (np.int64(top[i, 0]) + top[i + 1, 0] + bottom[i, 0]
+                           + bottom[i + 1, 0] + 2) >> 2]
+            g = scaled[1, (np.int64(top[i, 1]) + top[i + 1, 1] + bottom[i, 1]
+                           + bottom[i + 1, 1] + 2) >> 2]
+            r = scaled[2, (np.int64(top[i, 2]) + top[i + 1, 2] + bottom[i, 2]
+                           + bottom[i + 1, 2] + 2) >> 2]
+            v = max(b, g, r)
+            if v < v_floor:
+                continue
+            diff = v - min(b, g, r)
+            if ((diff * _SDIV[v] + _HALF) >> _HSV_SHIFT) < sat_min:
+                continue
+            if v == r:
+                hue = g - b
+            elif v == g:
+                hue = b - r + 2 * diff
+            else:
+                hue = r - g + 4 * diff
+            hue = (hue * _HDIV[diff] + _HALF) >> _HSV_SHIFT
+            if hue < 0:
+                hue += 180
+            if gate[hue]:
+                out[y, x] = 255
+    return out
+
 
 def warm_up() -> None:
     """Compile the loops (or load them from the cache: ≈ 0.1 s the first time in a process) now,
     at set-up, rather than in the first frame's detection. Cheap after the first call.
 
-    A loop is compiled per argument layout: contiguous arrays and views (a region of a frame)
-    are both made here, as the detector passes them."""
+    A loop is compiled per argument layout: contiguous arrays and views (a region of a frame),
+    writable and read-only (a frame wrapping a camera's buffer), are all made here, as the
+    detector passes them."""
     global _warm
     if _warm:
         return
     frame = np.zeros((6, 6, 3), np.uint8)
-    view = frame[1:5, 1:5]  # a region of a frame: not contiguous
+    fixed = frame.copy()
+    fixed.setflags(write=False)
     origins = np.zeros(1, np.intp)
-    for image in (frame, view):
+    # Contiguous, a region of a frame (not contiguous), and both read-only.
+    for image in (frame, frame[1:5, 1:5], fixed, fixed[1:5, 1:5]):
         block_means(image, origins, origins, 2)
         saturation_rank(image, 0.5)
         grey_sums(image, np.ones(3, np.float32), 255, 0, 255)
         quadrants_differ(image, np.zeros(image.shape[:2], np.uint8), 1, 1, 1.0)
+        coarse_seeds(image, np.ones(3, np.float32), 1, 1, np.zeros(256, np.uint8))
     points = np.array([[0.0, 1.0], [1.0, 0.0], [0.0, -1.0], [-1.0, 0.0]])
     circle_fit(points, True)
     ellipse_rms(points, 0.0, 0.0, 2.0, 1.0, 0.0)
