@@ -427,3 +427,62 @@ def test_coarse_seeds_match_opencv_on_random_frames() -> None:
         got = kernels.coarse_seeds(image, np.array(gains, np.float32), sat_min, v_floor, gate)
         want = _opencv_seeds(image, gains, sat_min, v_floor, gate)
         assert np.array_equal(got, want), (h, w, gains, sat_min, v_floor)
+
+
+def _opencv_box(image: np.ndarray, box: tuple[int, int, int, int],
+                gains: tuple[float, float, float], sat_min: int, v_floor: int,
+                gate: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A gated rectangle's search products as OpenCV calls made them (session 6)."""
+    x0, y0, x1, y1 = box
+    small = cv2.resize(image[2 * y0:2 * y1, 2 * x0:2 * x1], (x1 - x0, y1 - y0),
+                       interpolation=cv2.INTER_AREA)
+    if gains != (1.0, 1.0, 1.0):
+        small = cv2.transform(small, _diagonal(gains))
+    hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
+    mask = cv2.inRange(hsv, (0, sat_min, v_floor), (255, 255, 255))
+    return small, hsv, cv2.bitwise_and(mask, cv2.LUT(np.ascontiguousarray(hsv[:, :, 0]), gate))
+
+
+@pytest.mark.parametrize("gains", [(1.0, 1.0, 1.0), (1.23, 0.91, 0.77), (0.6, 1.0, 1.6)])
+def test_search_box_matches_opencv_on_every_colour(every_colour: np.ndarray,
+                                                   gains: tuple[float, float, float]) -> None:
+    gate = np.where(np.arange(256) % 3 == 0, 255, 0).astype(np.uint8)
+    for rows in range(0, 4096, 1024):
+        slab = np.repeat(np.repeat(every_colour[rows:rows + 1024], 2, axis=0), 2, axis=1)
+        small = np.zeros((1024, 4096, 3), np.uint8)
+        hsv = np.zeros_like(small)
+        mask = kernels.search_box(slab, 0, 0, 4096, 1024, np.array(gains, np.float32), 60, 40,
+                                  gate, small, hsv)
+        want = _opencv_box(slab, (0, 0, 4096, 1024), gains, 60, 40, gate)
+        for got, ref in zip((small, hsv, mask), want, strict=True):
+            assert np.array_equal(got, ref), rows
+
+
+def test_search_box_writes_its_rectangle_only_and_matches_opencv() -> None:
+    rng = np.random.default_rng(22)
+    for _ in range(60):
+        sh, sw = int(rng.integers(4, 250)), int(rng.integers(4, 330))
+        image = rng.integers(0, 256, (2 * sh + 3, 2 * sw + 5, 3), np.uint8)
+        if rng.random() < 0.5:
+            image = cv2.GaussianBlur(image, (0, 0), float(rng.uniform(0.5, 4.0)))
+        image = image[:2 * sh + int(rng.integers(0, 2)), :2 * sw + int(rng.integers(0, 2))]
+        if rng.random() < 0.3:
+            image = image.copy()
+            image.setflags(write=False)
+        x0, y0 = int(rng.integers(0, sw - 1)), int(rng.integers(0, sh - 1))
+        x1, y1 = int(rng.integers(x0 + 1, sw + 1)), int(rng.integers(y0 + 1, sh + 1))
+        b, g, r = (float(x) for x in rng.uniform(0.6, 1.6, 3))
+        gains = (b, g, r) if rng.random() < 0.7 else (1.0, 1.0, 1.0)
+        gate = np.where(rng.random(256) < 0.4, 255, 0).astype(np.uint8)
+        sat_min, v_floor = int(rng.integers(0, 256)), int(rng.integers(0, 256))
+        small = np.zeros((sh, sw, 3), np.uint8)
+        hsv = np.zeros_like(small)
+        mask = kernels.search_box(image, x0, y0, x1, y1, np.array(gains, np.float32), sat_min,
+                                  v_floor, gate, small, hsv)
+        want = _opencv_box(image, (x0, y0, x1, y1), gains, sat_min, v_floor, gate)
+        assert np.array_equal(small[y0:y1, x0:x1], want[0])
+        assert np.array_equal(hsv[y0:y1, x0:x1], want[1])
+        assert np.array_equal(mask, want[2])
+        small[y0:y1, x0:x1] = 0
+        hsv[y0:y1, x0:x1] = 0
+        assert not small.any() and not hsv.any()  # nothing outside the rectangle

@@ -4,14 +4,14 @@ Most of a room is not a mark's colour. A quarter-resolution sample of the frame 
 mean of a 2×2 block of every 4×4: ``INTER_LINEAR`` at a quarter) is white-balanced and
 classified with the search mask's own thresholds — in one compiled pass
 (:func:`.kernels.coarse_seeds`) when the frame's sides are multiples of 4, else with OpenCV
-(the same seeds; ≈ 0.07 against 0.11 ms at 640×480); a mark of
-radius ≥ 4 px always holds a sample that lies wholly inside it (its inscribed square is ≥ 5 px
+(the same seeds; ≈ 0.07 against 0.11 ms at 640×480); a mark of radius ≥ 4 px always holds a sample that lies wholly inside it (its inscribed square is ≥ 5 px
 wide), so every mark seeds at least one pixel. The seeds, grown by the reach the later stages
 read around a blob (``_PAD`` search px: the background band of the whole-mark measurement, the
 samples outside an arc), give rectangles; the half-resolution search products (white-balanced
-image, HSV, mask) are computed only there and the rest of the search arrays stays zero (no
-colour: no blob). Frames whose candidate area is large (a wall or a sky in a mark's colour) are
-searched whole, as before.
+image, HSV, mask) are computed only there — one compiled pass per rectangle
+(:func:`.kernels.search_box`), then OpenCV's opening — and the rest of the search arrays stays
+zero (no colour: no blob). Frames whose candidate area is large (a wall or a sky in a mark's
+colour) are searched whole, with OpenCV, as before.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from marknav.vision.detect.geometry import Mat, U8Array
-from marknav.vision.detect.kernels import coarse_seeds
+from marknav.vision.detect.kernels import coarse_seeds, search_box
 
 __all__ = ["COARSE_STEP", "SearchBuffers", "SearchProducts", "coarse_sample", "search_products"]
 
@@ -35,6 +35,9 @@ _PAD = 8
 #: Share of the search image above which the whole frame is searched (rectangles cost more
 #: than they save).
 _MAX_SHARE = 0.45
+#: The hue gate's table when every hue passes, and the gains of no white balance.
+_ALL_HUES = np.full(256, 255, np.uint8)
+_UNIT = np.ones(3, np.float32)
 
 
 @dataclass
@@ -113,16 +116,24 @@ def search_products(image: U8Array, small_size: tuple[int, int], scale: int,
         return SearchProducts(small, hsv, mask, None)
     small, hsv, mask = buffers.take(sw, sh)
     buffers.written = boxes
+    gains = _gains(balance)
     for x0, y0, x1, y1 in boxes:
-        part: Mat = image[y0 * scale:y1 * scale, x0 * scale:x1 * scale]
         # Written straight into the buffers' rectangles (per-pixel operations: overlapping
         # rectangles write the same values on their common pixels).
-        b = small[y0:y1, x0:x1]
-        if scale > 1:
-            cv2.resize(part, (x1 - x0, y1 - y0), dst=b, interpolation=cv2.INTER_AREA)
+        if scale == 2:
+            m = search_box(image, x0, y0, x1, y1, gains, sat_min, v_floor,
+                           _ALL_HUES if gate_lut is None else gate_lut, small, hsv)
+            if kernel is not None:
+                m = cv2.morphologyEx(m, cv2.MORPH_OPEN, kernel)
         else:
-            b[...] = part
-        m = _classify_into(b, hsv[y0:y1, x0:x1], balance, sat_min, v_floor, gate_lut, kernel)
+            b = small[y0:y1, x0:x1]
+            if scale > 1:
+                cv2.resize(image[y0 * scale:y1 * scale, x0 * scale:x1 * scale],
+                           (x1 - x0, y1 - y0), dst=b, interpolation=cv2.INTER_AREA)
+            else:
+                b[...] = image[y0:y1, x0:x1]
+            m = _classify_into(b, hsv[y0:y1, x0:x1], balance, sat_min, v_floor, gate_lut,
+                               kernel)
         # Overlapping rectangles agree on their common pixels except near a rectangle's edge,
         # where the opening saw zeros: keep the union.
         cv2.bitwise_or(mask[y0:y1, x0:x1], m, dst=mask[y0:y1, x0:x1])
@@ -143,7 +154,9 @@ def _classify_into(bgr: Mat, hsv: Mat, balance: npt.NDArray[np.float32] | None, 
     return mask
 
 
-_ALL_HUES = np.full(256, 255, np.uint8)
+def _gains(balance: npt.NDArray[np.float32] | None) -> npt.NDArray[np.float32]:
+    """The diagonal of the white balance's matrix (B, G, R gains)."""
+    return _UNIT if balance is None else np.ascontiguousarray(np.diagonal(balance), np.float32)
 
 
 def _seeds(image: U8Array, balance: npt.NDArray[np.float32] | None, sat_min: int, v_floor: int,
@@ -151,9 +164,7 @@ def _seeds(image: U8Array, balance: npt.NDArray[np.float32] | None, sat_min: int
     """The coarse gate's seed mask (quarter resolution) of ``image``."""
     h, w = image.shape[:2]
     if h % COARSE_STEP == 0 and w % COARSE_STEP == 0:
-        gains = np.ones(3, np.float32) if balance is None else \
-            np.ascontiguousarray(np.diagonal(balance), np.float32)
-        return coarse_seeds(image, gains, sat_min, v_floor,
+        return coarse_seeds(image, _gains(balance), sat_min, v_floor,
                             _ALL_HUES if gate_lut is None else gate_lut)
     return _classify(coarse_sample(image), balance, sat_min, v_floor, gate_lut, None)[2]
 

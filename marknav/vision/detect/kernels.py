@@ -21,9 +21,10 @@ Saturation and value are OpenCV's 8-bit ``COLOR_BGR2HSV`` ones exactly: ``V = ma
 rounded half to even, saturated). ``tests/vision/test_kernels.py`` checks both against OpenCV
 on every 8-bit colour.
 
-The coarse gate (:mod:`.gate`): :func:`coarse_seeds` — the quarter-resolution sample, its
-white balance, HSV and the search thresholds in one pass (the hue as OpenCV's ``hdiv_table``
-gives it; checked on every 8-bit colour too).
+The coarse gate and the search (:mod:`.gate`): :func:`coarse_seeds` — the quarter-resolution
+sample, its white balance, HSV and the search thresholds in one pass; :func:`search_box` — the
+half-resolution image, its HSV and the search mask of one gated rectangle in one pass (the hue
+as OpenCV's ``hdiv_table`` gives it; both checked against OpenCV, on every 8-bit colour too).
 
 The arc path and the whole-mark measurement:
 
@@ -50,7 +51,8 @@ import numpy.typing as npt
 from marknav.compiled import compiled as _compiled
 
 __all__ = ["block_means", "circle_fit", "coarse_seeds", "ellipse_rms", "grey_sums",
-           "quadrants_differ", "radius_range", "saturation_rank", "true_runs", "warm_up"]
+           "quadrants_differ", "radius_range", "saturation_rank", "search_box", "true_runs",
+           "warm_up"]
 
 
 _HSV_SHIFT = 12
@@ -365,6 +367,54 @@ def coarse_seeds(image: npt.NDArray[np.uint8], gains: npt.NDArray[np.float32], s
                 out[y, x] = 255
     return out
 
+@_compiled
+def search_box(image: npt.NDArray[np.uint8], x0: int, y0: int, x1: int, y1: int,
+               gains: npt.NDArray[np.float32], sat_min: int, v_floor: int,
+               gate: npt.NDArray[np.uint8], small: npt.NDArray[np.uint8],
+               hsv: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
+    """The half-resolution search products of one rectangle (search px ``x0``..``x1``,
+    ``y0``..``y1``) in one pass: ``small`` there gets each 2×2 block's rounded mean
+    (``cv2.resize`` by half with ``INTER_AREA``) scaled by ``gains`` (as ``cv2.transform``
+    with their diagonal matrix), ``hsv`` its OpenCV 8-bit HSV; returns the rectangle's mask
+    before the opening: 255 where S ≥ ``sat_min``, V ≥ ``v_floor`` and ``gate[H] != 0``."""
+    scaled = np.empty((3, 256), np.int64)
+    for c in range(3):
+        for value in range(256):
+            scaled[c, value] = min(255, int(np.rint(np.float32(value) * gains[c])))
+    mask = np.zeros((y1 - y0, x1 - x0), np.uint8)
+    for y in range(y0, y1):
+        top = image[2 * y]
+        bottom = image[2 * y + 1]
+        for x in range(x0, x1):
+            i = 2 * x
+            b = scaled[0, (np.int64(top[i, 0]) + top[i + 1, 0] + bottom[i, 0]
+                           + bottom[i + 1, 0] + 2) >> 2]
+            g = scaled[1, (np.int64(top[i, 1]) + top[i + 1, 1] + bottom[i, 1]
+                           + bottom[i + 1, 1] + 2) >> 2]
+            r = scaled[2, (np.int64(top[i, 2]) + top[i + 1, 2] + bottom[i, 2]
+                           + bottom[i + 1, 2] + 2) >> 2]
+            small[y, x, 0] = b
+            small[y, x, 1] = g
+            small[y, x, 2] = r
+            v = max(b, g, r)
+            diff = v - min(b, g, r)
+            s = (diff * _SDIV[v] + _HALF) >> _HSV_SHIFT
+            if v == r:
+                hue = g - b
+            elif v == g:
+                hue = b - r + 2 * diff
+            else:
+                hue = r - g + 4 * diff
+            hue = (hue * _HDIV[diff] + _HALF) >> _HSV_SHIFT
+            if hue < 0:
+                hue += 180
+            hsv[y, x, 0] = hue
+            hsv[y, x, 1] = s
+            hsv[y, x, 2] = v
+            if s >= sat_min and v >= v_floor and gate[hue]:
+                mask[y - y0, x - x0] = 255
+    return mask
+
 
 def warm_up() -> None:
     """Compile the loops (or load them from the cache: ≈ 0.1 s the first time in a process) now,
@@ -387,6 +437,8 @@ def warm_up() -> None:
         grey_sums(image, np.ones(3, np.float32), 255, 0, 255)
         quadrants_differ(image, np.zeros(image.shape[:2], np.uint8), 1, 1, 1.0)
         coarse_seeds(image, np.ones(3, np.float32), 1, 1, np.zeros(256, np.uint8))
+        search_box(image, 0, 0, 1, 1, np.ones(3, np.float32), 1, 1, np.zeros(256, np.uint8),
+                   np.zeros((3, 3, 3), np.uint8), np.zeros((3, 3, 3), np.uint8))
     points = np.array([[0.0, 1.0], [1.0, 0.0], [0.0, -1.0], [-1.0, 0.0]])
     circle_fit(points, True)
     ellipse_rms(points, 0.0, 0.0, 2.0, 1.0, 0.0)
