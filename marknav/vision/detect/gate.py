@@ -4,8 +4,9 @@ Most of a room is not a mark's colour. A quarter-resolution sample of the frame 
 mean of a 2×2 block of every 4×4: ``INTER_LINEAR`` at a quarter) is white-balanced and
 classified with the search mask's own thresholds — in one compiled pass
 (:func:`.kernels.coarse_seeds`) when the frame's sides are multiples of 4, else with OpenCV
-(the same seeds; ≈ 0.07 against 0.11 ms at 640×480); a mark of radius ≥ 4 px always holds a sample that lies wholly inside it (its inscribed square is ≥ 5 px
-wide), so every mark seeds at least one pixel. The seeds, grown by the reach the later stages
+(the same seeds; ≈ 0.07 against 0.11 ms at 640×480); a mark of radius ≥ 4 px always holds
+a sample that lies wholly inside it (its inscribed square is ≥ 5 px wide), so every mark seeds
+at least one pixel. The seeds, grown by the reach the later stages
 read around a blob (``_PAD`` search px: the background band of the whole-mark measurement, the
 samples outside an arc), give rectangles; the half-resolution search products (white-balanced
 image, HSV, mask) are computed only there — one compiled pass per rectangle
@@ -110,7 +111,7 @@ def search_products(image: U8Array, small_size: tuple[int, int], scale: int,
     boxes = _boxes(_seeds(image, balance, sat_min, v_floor, gate_lut), scale, sw, sh, band) \
         if gated else None
     if boxes is None:
-        small = whole if whole is not None else image if scale == 1 else \
+        small: Mat = whole if whole is not None else image if scale == 1 else \
             cv2.resize(image[:sh * scale, :sw * scale], (sw, sh), interpolation=cv2.INTER_AREA)
         small, hsv, mask = _classify(small, balance, sat_min, v_floor, gate_lut, kernel)
         return SearchProducts(small, hsv, mask, None)
@@ -120,6 +121,7 @@ def search_products(image: U8Array, small_size: tuple[int, int], scale: int,
     for x0, y0, x1, y1 in boxes:
         # Written straight into the buffers' rectangles (per-pixel operations: overlapping
         # rectangles write the same values on their common pixels).
+        m: Mat
         if scale == 2:
             m = search_box(image, x0, y0, x1, y1, gains, sat_min, v_floor,
                            _ALL_HUES if gate_lut is None else gate_lut, small, hsv)
