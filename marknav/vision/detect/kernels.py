@@ -420,18 +420,15 @@ def warm_up() -> None:
     """Compile the loops (or load them from the cache: ≈ 0.1 s the first time in a process) now,
     at set-up, rather than in the first frame's detection. Cheap after the first call.
 
-    A loop is compiled per argument layout: contiguous arrays and views (a region of a frame),
-    writable and read-only (a frame wrapping a camera's buffer), are all made here, as the
-    detector passes them."""
+    A loop is compiled per argument layout: contiguous arrays and views (a region of a frame)
+    are both made here, as the detector passes them. (A read-only frame, e.g. one wrapping a
+    camera's byte buffer, compiles its own variants at its first detection.)"""
     global _warm
     if _warm:
         return
     frame = np.zeros((6, 6, 3), np.uint8)
-    fixed = frame.copy()
-    fixed.setflags(write=False)
     origins = np.zeros(1, np.intp)
-    # Contiguous, a region of a frame (not contiguous), and both read-only.
-    for image in (frame, frame[1:5, 1:5], fixed, fixed[1:5, 1:5]):
+    for image in (frame, frame[1:5, 1:5]):  # contiguous, and a region of a frame
         block_means(image, origins, origins, 2)
         saturation_rank(image, 0.5)
         grey_sums(image, np.ones(3, np.float32), 255, 0, 255)
