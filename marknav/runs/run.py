@@ -207,7 +207,7 @@ def execute(req: RunRequest) -> RunResult:
         root = build_mission_tree(mission)
         keys.reset()
         # The detector's compiled loops are loaded now (≈ 0.1–0.3 s once per process; the
-        # first compile ≈ 4 s), before the robot and the camera are opened and the clock
+        # first compile ≈ 7 s), before the robot and the camera are opened and the clock
         # starts: the first control cycle must not wait for them.
         from marknav.vision.detect.kernels import warm_up
 
