@@ -74,6 +74,37 @@ def _saturation(b: int, g: int, r: int) -> tuple[int, int]:
 
 
 @_compiled
+def _gain_table(gains: npt.NDArray[np.float32]) -> npt.NDArray[np.int64]:
+    """Each channel's 256 values scaled by its gain (B, G, R; ``float32``) as ``cv2.transform``
+    with the gains' diagonal matrix makes them: the ``float32`` product, rounded half to even,
+    saturated."""
+    scaled = np.empty((3, 256), np.int64)
+    for c in range(3):
+        for value in range(256):
+            scaled[c, value] = min(255, int(np.rint(np.float32(value) * gains[c])))
+    return scaled
+
+
+@_compiled
+def _hue(b: int, g: int, r: int, v: int, diff: int) -> int:
+    """OpenCV's 8-bit hue (0..179) of a colour with value ``v`` = max and ``diff`` = max − min."""
+    if v == r:
+        hue = g - b
+    elif v == g:
+        hue = b - r + 2 * diff
+    else:
+        hue = r - g + 4 * diff
+    hue = (hue * _HDIV[diff] + _HALF) >> _HSV_SHIFT
+    return hue + 180 if hue < 0 else hue
+
+
+@_compiled
+def _mean4(top: npt.NDArray[np.uint8], bottom: npt.NDArray[np.uint8], i: int, c: int) -> int:
+    """Channel ``c``'s rounded mean (halves up) of the 2×2 block at column ``i`` of two rows."""
+    return (np.int64(top[i, c]) + top[i + 1, c] + bottom[i, c] + bottom[i + 1, c] + 2) >> 2
+
+
+@_compiled
 def block_means(image: npt.NDArray[np.uint8], ys: npt.NDArray[np.intp],
                 xs: npt.NDArray[np.intp], scale: int) -> npt.NDArray[np.uint8]:
     """Pixel (i, j) of the result: the mean of ``image``'s ``scale``×``scale`` block whose
@@ -128,10 +159,7 @@ def grey_sums(bgr: npt.NDArray[np.uint8], gains: npt.NDArray[np.float32], s_max:
     saturation ≤ ``s_max``, ``v_min`` ≤ value ≤ ``v_max`` — and the sums of their B, G, R
     as they are in ``bgr`` (unscaled)."""
     # Each channel's 256 scaled values, as cv2.transform makes them, looked up per pixel.
-    scaled = np.empty((3, 256), np.int64)
-    for c in range(3):
-        for value in range(256):
-            scaled[c, value] = min(255, int(np.rint(np.float32(value) * gains[c])))
+    scaled = _gain_table(gains)
     count = 0
     sb = 0
     sg = 0
@@ -331,10 +359,7 @@ def coarse_seeds(image: npt.NDArray[np.uint8], gains: npt.NDArray[np.float32], s
     scaled by ``gains`` (B, G, R, ``float32``; as ``cv2.transform`` with their diagonal matrix),
     255 where OpenCV's 8-bit HSV of it has S ≥ ``sat_min``, V ≥ ``v_floor`` and
     ``gate[H] != 0``, else 0. One pass instead of a resize and five calls on the sample."""
-    scaled = np.empty((3, 256), np.int64)
-    for c in range(3):
-        for value in range(256):
-            scaled[c, value] = min(255, int(np.rint(np.float32(value) * gains[c])))
+    scaled = _gain_table(gains)
     rows, cols = image.shape[0] // 4, image.shape[1] // 4
     out = np.zeros((rows, cols), np.uint8)
     for y in range(rows):
@@ -342,30 +367,20 @@ def coarse_seeds(image: npt.NDArray[np.uint8], gains: npt.NDArray[np.float32], s
         bottom = image[4 * y + 2]
         for x in range(cols):
             i = 4 * x + 1
-            b = scaled[0, (np.int64(top[i, 0]) + top[i + 1, 0] + bottom[i, 0]
-                           + bottom[i + 1, 0] + 2) >> 2]
-            g = scaled[1, (np.int64(top[i, 1]) + top[i + 1, 1] + bottom[i, 1]
-                           + bottom[i + 1, 1] + 2) >> 2]
-            r = scaled[2, (np.int64(top[i, 2]) + top[i + 1, 2] + bottom[i, 2]
-                           + bottom[i + 1, 2] + 2) >> 2]
+            b = scaled[0, _mean4(top, bottom, i, 0)]
+            g = scaled[1, _mean4(top, bottom, i, 1)]
+            r = scaled[2, _mean4(top, bottom, i, 2)]
             v = max(b, g, r)
             if v < v_floor:
                 continue
             diff = v - min(b, g, r)
             if ((diff * _SDIV[v] + _HALF) >> _HSV_SHIFT) < sat_min:
                 continue
-            if v == r:
-                hue = g - b
-            elif v == g:
-                hue = b - r + 2 * diff
-            else:
-                hue = r - g + 4 * diff
-            hue = (hue * _HDIV[diff] + _HALF) >> _HSV_SHIFT
-            if hue < 0:
-                hue += 180
+            hue = _hue(b, g, r, v, diff)
             if gate[hue]:
                 out[y, x] = 255
     return out
+
 
 @_compiled
 def search_box(image: npt.NDArray[np.uint8], x0: int, y0: int, x1: int, y1: int,
@@ -377,37 +392,23 @@ def search_box(image: npt.NDArray[np.uint8], x0: int, y0: int, x1: int, y1: int,
     (``cv2.resize`` by half with ``INTER_AREA``) scaled by ``gains`` (as ``cv2.transform``
     with their diagonal matrix), ``hsv`` its OpenCV 8-bit HSV; returns the rectangle's mask
     before the opening: 255 where S ≥ ``sat_min``, V ≥ ``v_floor`` and ``gate[H] != 0``."""
-    scaled = np.empty((3, 256), np.int64)
-    for c in range(3):
-        for value in range(256):
-            scaled[c, value] = min(255, int(np.rint(np.float32(value) * gains[c])))
+    scaled = _gain_table(gains)
     mask = np.zeros((y1 - y0, x1 - x0), np.uint8)
     for y in range(y0, y1):
         top = image[2 * y]
         bottom = image[2 * y + 1]
         for x in range(x0, x1):
             i = 2 * x
-            b = scaled[0, (np.int64(top[i, 0]) + top[i + 1, 0] + bottom[i, 0]
-                           + bottom[i + 1, 0] + 2) >> 2]
-            g = scaled[1, (np.int64(top[i, 1]) + top[i + 1, 1] + bottom[i, 1]
-                           + bottom[i + 1, 1] + 2) >> 2]
-            r = scaled[2, (np.int64(top[i, 2]) + top[i + 1, 2] + bottom[i, 2]
-                           + bottom[i + 1, 2] + 2) >> 2]
+            b = scaled[0, _mean4(top, bottom, i, 0)]
+            g = scaled[1, _mean4(top, bottom, i, 1)]
+            r = scaled[2, _mean4(top, bottom, i, 2)]
             small[y, x, 0] = b
             small[y, x, 1] = g
             small[y, x, 2] = r
             v = max(b, g, r)
             diff = v - min(b, g, r)
             s = (diff * _SDIV[v] + _HALF) >> _HSV_SHIFT
-            if v == r:
-                hue = g - b
-            elif v == g:
-                hue = b - r + 2 * diff
-            else:
-                hue = r - g + 4 * diff
-            hue = (hue * _HDIV[diff] + _HALF) >> _HSV_SHIFT
-            if hue < 0:
-                hue += 180
+            hue = _hue(b, g, r, v, diff)
             hsv[y, x, 0] = hue
             hsv[y, x, 1] = s
             hsv[y, x, 2] = v
