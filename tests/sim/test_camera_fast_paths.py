@@ -16,7 +16,7 @@ import pytest
 
 from marknav.planning.kinematics import Pose
 from marknav.sim.camera import CameraConfig, Renderer
-from marknav.sim.projection import MarkGeometry, clip_near, inset
+from marknav.sim.projection import MarkGeometry, clip_near, inset, rim_projection
 from marknav.sim.render_bench import example_poses, example_renderer
 from marknav.sim.world import Background, Conditions, MarkSpec, World
 from marknav.vision.palette import ColourRange
@@ -197,3 +197,16 @@ def test_the_compiled_inset_is_the_numpy_inset() -> None:
     assert len(polygons) > 300 and same > 0.75 * len(polygons)  # the thin ones: last bits
     flat = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])  # no area: unchanged
     assert np.array_equal(inset(flat, 0.6), flat)
+
+
+def test_rendering_compiles_nothing_after_the_renderer_is_built() -> None:
+    """The projection's compiled loops are loaded when a renderer is built, before a run's
+    clock starts: no frame stops to compile."""
+    renderer = example_renderer()
+    loops = (rim_projection, inset)
+    before = [len(loop.signatures) for loop in loops]
+    assert all(before)
+    for k, pose in enumerate(example_poses(25)):
+        renderer.render(pose, np.random.default_rng(k))
+        renderer.render(pose)
+    assert [len(loop.signatures) for loop in loops] == before

@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 
 from marknav.vision.bench import SceneSpec, render_scene
-from marknav.vision.detect import Detector, DetectorConfig, Mark
+from marknav.vision.detect import Detector, DetectorConfig, Mark, gate
 from marknav.vision.detect.gate import SearchBuffers, search_products
 from marknav.vision.palette import DEFAULT_PALETTE
 
@@ -62,3 +62,68 @@ def test_with_the_horizon_prior_only_marks_near_the_row_are_reported() -> None:
                                                      horizon_tolerance_px=30.0))
     assert [m.colour for m in prior.detect(image)] == ["red"]
     assert sorted(m.colour for m in Detector(DEFAULT_PALETTE).detect(image)) == ["blue", "red"]
+
+
+def _opencv_products(image: np.ndarray, balance: np.ndarray | None, sat_min: int,
+                     v_floor: int, gate_lut: np.ndarray | None, kernel: np.ndarray | None,
+                     band: tuple[float, float] | None,
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list | None]:
+    """The gated search products as OpenCV calls made them (session 6): the seeds from the
+    quarter sample, each rectangle resized, balanced, converted and thresholded."""
+    h, w = image.shape[:2]
+    sw, sh = w // 2, h // 2
+    seeds = gate._classify(gate.coarse_sample(image), balance, sat_min, v_floor, gate_lut,
+                           None)[2]
+    boxes = gate._boxes(seeds, 2, sw, sh, band)
+    small = np.zeros((sh, sw, 3), np.uint8)
+    hsv = np.zeros_like(small)
+    mask = np.zeros((sh, sw), np.uint8)
+    for x0, y0, x1, y1 in boxes or []:
+        part = cv2.resize(image[2 * y0:2 * y1, 2 * x0:2 * x1], (x1 - x0, y1 - y0),
+                          interpolation=cv2.INTER_AREA)
+        b, c, m = gate._classify(part, balance, sat_min, v_floor, gate_lut, kernel)
+        small[y0:y1, x0:x1], hsv[y0:y1, x0:x1] = b, c
+        mask[y0:y1, x0:x1] |= m
+    return small, hsv, mask, boxes
+
+
+def test_the_compiled_search_gives_the_opencv_search_products_exactly() -> None:
+    """Frames of any size (odd, not multiples of 4), regions of larger frames, read-only
+    frames; with and without white balance, hue gate, opening and horizon band; buffers used
+    twice (a second frame's rectangles clear the first's)."""
+    det = Detector(DEFAULT_PALETTE)
+    rng = np.random.default_rng(17)
+    gated_frames = 0
+    for _ in range(40):
+        w, h = int(rng.integers(130, 700)), int(rng.integers(130, 520))
+        if rng.random() < 0.3:
+            w -= w % 4
+        scene = SceneSpec(width=w, height=h, n_marks=int(rng.integers(0, 5)),
+                          n_clutter=int(rng.integers(0, 4)), radius=(4.0, 60.0))
+        image = render_scene(rng, scene).image
+        if rng.random() < 0.3:
+            big = np.zeros((h + 3, w + 5, 3), np.uint8)
+            big[1:1 + h, 2:2 + w] = image
+            image = big[1:1 + h, 2:2 + w]
+        elif rng.random() < 0.2:
+            image = image.copy()
+            image.setflags(write=False)
+        gains = rng.uniform(0.6, 1.6, 3).astype(np.float32)
+        balance = None if rng.random() < 0.3 else np.diag(gains).astype(np.float32)
+        sat_min, v_floor = int(rng.integers(20, 120)), int(rng.integers(0, 120))
+        lut = det._gate_lut if rng.random() < 0.7 else None
+        kernel = det._kernel if rng.random() < 0.7 else None
+        band = None if rng.random() < 0.5 else (float(rng.uniform(0, h / 4)),
+                                                 float(rng.uniform(h / 4, h / 2)))
+        buffers = SearchBuffers()
+        for _ in range(2):
+            got = search_products(image, (w // 2, h // 2), 2, True, None, balance, sat_min,
+                                  v_floor, lut, kernel, buffers, band)
+            want = _opencv_products(image, balance, sat_min, v_floor, lut, kernel, band)
+            assert got.boxes == want[3]
+            if got.boxes is None:
+                continue  # a large candidate area: the whole frame, searched with OpenCV
+            gated_frames += 1
+            for a, b in zip((got.small, got.hsv, got.mask), want[:3], strict=True):
+                assert np.array_equal(a, b), (w, h)
+    assert gated_frames >= 40

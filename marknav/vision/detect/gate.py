@@ -28,7 +28,7 @@ from marknav.vision.detect.kernels import coarse_seeds, search_box
 
 __all__ = ["COARSE_STEP", "SearchBuffers", "SearchProducts", "coarse_sample", "search_products"]
 
-#: Full-resolution px per coarse px.
+#: Full-resolution px per coarse px (:func:`.kernels.coarse_seeds` is written for 4).
 COARSE_STEP = 4
 #: Search px grown around every coarse seed (covers ``whole._BACK`` and the arc path's reads
 #: outside a blob, plus the search mask's blur and opening).
@@ -103,11 +103,15 @@ def search_products(image: U8Array, small_size: tuple[int, int], scale: int,
                     kernel: Mat | None, buffers: SearchBuffers,
                     band: tuple[float, float] | None = None) -> SearchProducts:
     """The half-resolution search image, HSV and mask, computed where the coarse gate
-    (``gated``) finds a seed, or over the whole frame (``whole``: the search-resolution image
-    when already made). ``scale``: full px per search px (1 or 2). Gated products live in
-    ``buffers`` until the next call. ``band`` (search rows, the horizon prior's): only seeded
-    regions reaching into it are searched."""
+    (``gated``; needs ``scale`` 2) finds a seed, or over the whole frame (``whole``: the
+    search-resolution image when already made). ``scale``: full px per search px (1 or 2).
+    Gated products live in ``buffers`` until the next call. ``band`` (search rows, the horizon
+    prior's): only seeded regions reaching into it are searched. ``balance`` is a diagonal
+    matrix (the white balance's gains) and ``gate_lut`` holds 0 or 255 per hue, as the
+    detector makes them: the compiled passes read only the diagonal and test ``!= 0``."""
     sw, sh = small_size
+    if gated and scale != 2:
+        raise ValueError(f"the coarse gate needs the half-resolution search, not scale {scale}")
     boxes = _boxes(_seeds(image, balance, sat_min, v_floor, gate_lut), scale, sw, sh, band) \
         if gated else None
     if boxes is None:
@@ -121,39 +125,14 @@ def search_products(image: U8Array, small_size: tuple[int, int], scale: int,
     for x0, y0, x1, y1 in boxes:
         # Written straight into the buffers' rectangles (per-pixel operations: overlapping
         # rectangles write the same values on their common pixels).
-        m: Mat
-        if scale == 2:
-            m = search_box(image, x0, y0, x1, y1, gains, sat_min, v_floor,
-                           _ALL_HUES if gate_lut is None else gate_lut, small, hsv)
-            if kernel is not None:
-                m = cv2.morphologyEx(m, cv2.MORPH_OPEN, kernel)
-        else:
-            b = small[y0:y1, x0:x1]
-            if scale > 1:
-                cv2.resize(image[y0 * scale:y1 * scale, x0 * scale:x1 * scale],
-                           (x1 - x0, y1 - y0), dst=b, interpolation=cv2.INTER_AREA)
-            else:
-                b[...] = image[y0:y1, x0:x1]
-            m = _classify_into(b, hsv[y0:y1, x0:x1], balance, sat_min, v_floor, gate_lut,
-                               kernel)
+        m: Mat = search_box(image, x0, y0, x1, y1, gains, sat_min, v_floor,
+                            _ALL_HUES if gate_lut is None else gate_lut, small, hsv)
+        if kernel is not None:
+            m = cv2.morphologyEx(m, cv2.MORPH_OPEN, kernel)
         # Overlapping rectangles agree on their common pixels except near a rectangle's edge,
         # where the opening saw zeros: keep the union.
         cv2.bitwise_or(mask[y0:y1, x0:x1], m, dst=mask[y0:y1, x0:x1])
     return SearchProducts(small, hsv, mask, boxes)
-
-
-def _classify_into(bgr: Mat, hsv: Mat, balance: npt.NDArray[np.float32] | None, sat_min: int,
-                   v_floor: int, gate_lut: Mat | None, kernel: Mat | None) -> Mat:
-    """:func:`_classify` in place: ``bgr`` white-balanced, ``hsv`` filled; the search mask."""
-    if balance is not None:
-        cv2.transform(bgr, balance, dst=bgr)
-    cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV, dst=hsv)
-    mask = cv2.inRange(hsv, (0, sat_min, v_floor), (255, 255, 255))
-    if gate_lut is not None:
-        cv2.bitwise_and(mask, cv2.LUT(hsv[:, :, 0], gate_lut), dst=mask)
-    if kernel is not None:
-        mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, kernel)
-    return mask
 
 
 def _gains(balance: npt.NDArray[np.float32] | None) -> npt.NDArray[np.float32]:

@@ -349,12 +349,11 @@ def quadrants_differ(roi: npt.NDArray[np.uint8], back: npt.NDArray[np.uint8], cx
     return False
 
 
-_warm = False
-
 @_compiled
 def coarse_seeds(image: npt.NDArray[np.uint8], gains: npt.NDArray[np.float32], sat_min: int,
                  v_floor: int, gate: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
-    """The coarse gate's seeds of a frame whose sides are multiples of 4: per 4×4 block the
+    """The coarse gate's seeds of a frame whose sides are multiples of 4 (``gate.COARSE_STEP``
+    is 4): per 4×4 block the
     rounded mean of its central 2×2 pixels (``cv2.resize`` to a quarter with ``INTER_LINEAR``),
     scaled by ``gains`` (B, G, R, ``float32``; as ``cv2.transform`` with their diagonal matrix),
     255 where OpenCV's 8-bit HSV of it has S ≥ ``sat_min``, V ≥ ``v_floor`` and
@@ -417,8 +416,11 @@ def search_box(image: npt.NDArray[np.uint8], x0: int, y0: int, x1: int, y1: int,
     return mask
 
 
+_warm = False
+
+
 def warm_up() -> None:
-    """Compile the loops (or load them from the cache: ≈ 0.1 s the first time in a process) now,
+    """Compile the loops (or load them from the cache: ≈ 0.2 s the first time in a process) now,
     at set-up, rather than in the first frame's detection. Cheap after the first call.
 
     A loop is compiled per argument layout: contiguous arrays and views (a region of a frame)
