@@ -152,6 +152,9 @@ class WheelRatioCalibrator:
         self._clusters: list[_Cluster] = []
         self._count = 0
         self.rejected = 0
+        #: The last fit and the window it was made of (``_window`` counts every change).
+        self._window = 0
+        self._fitted: tuple[int, WheelRatioFit | None] | None = None
 
     @property
     def samples(self) -> int:
@@ -161,6 +164,7 @@ class WheelRatioCalibrator:
         """Start a new window (call after the odometry was re-anchored)."""
         self._clusters = []
         self._count = 0
+        self._window += 1
 
     def add(self, colour: str, pose_xy: tuple[float, float], mark_xy: tuple[float, float],
             sensitivity: Sensitivity) -> None:
@@ -180,10 +184,15 @@ class WheelRatioCalibrator:
         cluster.points.append(mark_xy)
         cluster.grads.append(grad)
         self._count += 1
+        self._window += 1
 
     def fit(self) -> WheelRatioFit | None:
-        """The current window's fit, whether or not it is precise enough."""
-        return fit_wheel_ratio([(c.points, c.grads) for c in self._clusters])
+        """The current window's fit, whether or not it is precise enough (made again only
+        when a sighting was added since the last one: most control cycles add none)."""
+        if self._fitted is None or self._fitted[0] != self._window:
+            self._fitted = (self._window,
+                            fit_wheel_ratio([(c.points, c.grads) for c in self._clusters]))
+        return self._fitted[1]
 
     def correction(self) -> WheelRatioStep | None:
         """A step to apply now, else ``None``. A precise fit ends the window: an implausible one

@@ -144,3 +144,32 @@ def test_far_sightings_are_ignored_and_colours_are_kept_apart() -> None:
     fit = cal.fit()
     assert fit is None  # two marks with one sighting each: nothing to fit yet
     assert cal.samples == 2
+
+
+def test_the_window_s_fit_is_made_again_whenever_a_sighting_changes_it() -> None:
+    """The fit is kept between control cycles that add no sighting, and never outlives one:
+    each answer is the closed-form fit of the window as it is."""
+    rng = random.Random(4)
+    cal = WheelRatioCalibrator(max_range_mm=1e9, cluster_mm=500.0)
+
+    def fresh() -> object:
+        return fit_wheel_ratio([(c.points, c.grads) for c in cal._clusters])
+
+    def sighting() -> None:
+        mark = rng.choice([(0.0, 1000.0), (2000.0, 1500.0)])
+        cal.add("red", (rng.uniform(-300, 300), rng.uniform(-300, 300)),
+                (mark[0] + rng.gauss(0, 20), mark[1] + rng.gauss(0, 20)),
+                (rng.uniform(-500, 500), rng.uniform(-500, 500), rng.uniform(-2, 2)))
+
+    for _ in range(6):
+        sighting()
+    first = cal.fit()
+    assert first is not None and cal.fit() is first  # nothing added: the same fit
+    sighting()
+    assert cal.fit() is not first and cal.fit() == fresh()
+    count = cal.samples
+    cal.reset()
+    assert cal.fit() is None
+    for _ in range(count):  # as many sightings as before, other ones
+        sighting()
+    assert cal.samples == count and cal.fit() == fresh() != first
