@@ -6,10 +6,10 @@ classified with the search mask's own thresholds — in one compiled pass
 (:func:`.kernels.coarse_seeds`) when the frame's sides are multiples of 4, else with OpenCV
 (the same seeds; ≈ 0.07 against 0.11 ms at 640×480); a mark of radius ≥ 4 px always holds
 a sample that lies wholly inside it (its inscribed square is ≥ 5 px wide), so every mark seeds
-at least one pixel. The seeds, grown by the reach the later stages
-read around a blob (``_PAD`` search px: the background band of the whole-mark measurement, the
-samples outside an arc), give rectangles; the half-resolution search products (white-balanced
-image, HSV, mask) are computed only there — one compiled pass per rectangle
+at least one pixel. The seeds, grown by the reach the later stages read around a blob
+(``_PAD`` search px: the background band of the whole-mark measurement, the samples outside an
+arc), give rectangles; the half-resolution search products (white-balanced image, HSV, mask)
+are computed only there — one compiled pass per rectangle
 (:func:`.kernels.search_box`), then OpenCV's opening — and the rest of the search arrays stays
 zero (no colour: no blob). Frames whose candidate area is large (a wall or a sky in a mark's
 colour) are searched whole, with OpenCV, as before.
