@@ -353,11 +353,11 @@ def quadrants_differ(roi: npt.NDArray[np.uint8], back: npt.NDArray[np.uint8], cx
 def coarse_seeds(image: npt.NDArray[np.uint8], gains: npt.NDArray[np.float32], sat_min: int,
                  v_floor: int, gate: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
     """The coarse gate's seeds of a frame whose sides are multiples of 4 (``gate.COARSE_STEP``
-    is 4): per 4×4 block the
-    rounded mean of its central 2×2 pixels (``cv2.resize`` to a quarter with ``INTER_LINEAR``),
-    scaled by ``gains`` (B, G, R, ``float32``; as ``cv2.transform`` with their diagonal matrix),
-    255 where OpenCV's 8-bit HSV of it has S ≥ ``sat_min``, V ≥ ``v_floor`` and
-    ``gate[H] != 0``, else 0. One pass instead of a resize and five calls on the sample."""
+    is 4): per 4×4 block the rounded mean of its central 2×2 pixels (``cv2.resize`` to a
+    quarter with ``INTER_LINEAR``), scaled by ``gains`` (B, G, R, ``float32``; as
+    ``cv2.transform`` with their diagonal matrix), 255 where OpenCV's 8-bit HSV of it has
+    S ≥ ``sat_min``, V ≥ ``v_floor`` and ``gate[H] != 0``, else 0. One pass instead of a resize
+    and five calls on the sample."""
     scaled = _gain_table(gains)
     rows, cols = image.shape[0] // 4, image.shape[1] // 4
     out = np.zeros((rows, cols), np.uint8)
