@@ -269,11 +269,20 @@ class Detector(_ArcMarks):
             n, _ = cv2.connectedComponents(own)
             if n < 3:  # background and at least two pieces
                 continue
-            shut = cv2.morphologyEx(own, cv2.MORPH_CLOSE, kernel)
-            shapes, _ = cv2.findContours(shut, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
-                                         offset=(x0, y0))
-            for shape in shapes:
-                marks.extend(self._bridged_one(frame, shape, min_area))
+            marks.extend(self._closed_marks(frame, own, (x0, y0), kernel, min_area))
+        return marks
+
+    def _closed_marks(self, frame: _Frame, pieces: Mat, origin: tuple[int, int], kernel: Mat,
+                      min_area: float, exclude: tuple[Mat, int, int] | None = None,
+                      ) -> list[Mark]:
+        """``pieces`` (a search-resolution mask placed at ``origin``) closed across gaps with
+        ``kernel``; each closed shape tried as one whole mark (:meth:`_bridged_one`)."""
+        shut = cv2.morphologyEx(pieces, cv2.MORPH_CLOSE, kernel)
+        shapes, _ = cv2.findContours(shut, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
+                                     offset=origin)
+        marks: list[Mark] = []
+        for shape in shapes:
+            marks.extend(self._bridged_one(frame, shape, min_area, exclude))
         return marks
 
     def _bar_like(self, contour: Contour, area: float, scale: float) -> tuple[float, float]:
@@ -305,9 +314,6 @@ class Detector(_ArcMarks):
                                      sw, sh)
         joined = np.zeros((y1 - y0, x1 - x0), np.uint8)
         cv2.drawContours(joined, kept, -1, 255, cv2.FILLED, offset=(-x0, -y0))
-        cv2.morphologyEx(joined, cv2.MORPH_CLOSE, kernel, dst=joined)
-        shapes, _ = cv2.findContours(joined, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
-                                     offset=(x0, y0))
         # The bars' pixels (a search pixel around them, at full resolution) are no part of the
         # mark's measurement either.
         dropped: Mat = np.zeros_like(joined)
@@ -317,11 +323,8 @@ class Detector(_ArcMarks):
         scale = round(frame.sx)
         full = cv2.resize(dropped, (dropped.shape[1] * scale, dropped.shape[0] * scale),
                           interpolation=cv2.INTER_NEAREST)
-        exclude = (full, x0 * scale, y0 * scale)
-        marks: list[Mark] = []
-        for shape in shapes:
-            marks.extend(self._bridged_one(frame, shape, min_area, exclude))
-        return marks
+        return self._closed_marks(frame, joined, (x0, y0), kernel, min_area,
+                                  (full, x0 * scale, y0 * scale))
 
     def _bridged_one(self, frame: _Frame, shape: Contour, min_area: float,
                      exclude: tuple[Mat, int, int] | None = None) -> list[Mark]:

@@ -67,10 +67,15 @@ _HDIV[1:] = np.round((180 << _HSV_SHIFT) / (6.0 * np.arange(1, 256, dtype=np.flo
 
 
 @_compiled
+def _saturation_of(v: int, diff: int) -> int:
+    """OpenCV's 8-bit saturation of a colour with value ``v`` = max and ``diff`` = max − min."""
+    return (diff * _SDIV[v] + _HALF) >> _HSV_SHIFT
+
+
+@_compiled
 def _saturation(b: int, g: int, r: int) -> tuple[int, int]:
     v = max(b, g, r)
-    low = min(b, g, r)
-    return ((v - low) * _SDIV[v] + _HALF) >> _HSV_SHIFT, v
+    return _saturation_of(v, v - min(b, g, r)), v
 
 
 @_compiled
@@ -115,11 +120,8 @@ def block_means(image: npt.NDArray[np.uint8], ys: npt.NDArray[np.intp],
             top = image[ys[i]]
             bottom = image[ys[i] + 1]
             for j in range(len(xs)):
-                x = xs[j]
                 for c in range(3):
-                    acc = (np.int32(top[x, c]) + np.int32(top[x + 1, c])
-                           + np.int32(bottom[x, c]) + np.int32(bottom[x + 1, c]))
-                    out[i, j, c] = (acc + 2) >> 2
+                    out[i, j, c] = _mean4(top, bottom, xs[j], c)
         return out
     n = scale * scale
     for i in range(len(ys)):
@@ -373,7 +375,7 @@ def coarse_seeds(image: npt.NDArray[np.uint8], gains: npt.NDArray[np.float32], s
             if v < v_floor:
                 continue
             diff = v - min(b, g, r)
-            if ((diff * _SDIV[v] + _HALF) >> _HSV_SHIFT) < sat_min:
+            if _saturation_of(v, diff) < sat_min:
                 continue
             hue = _hue(b, g, r, v, diff)
             if gate[hue]:
@@ -406,7 +408,7 @@ def search_box(image: npt.NDArray[np.uint8], x0: int, y0: int, x1: int, y1: int,
             small[y, x, 2] = r
             v = max(b, g, r)
             diff = v - min(b, g, r)
-            s = (diff * _SDIV[v] + _HALF) >> _HSV_SHIFT
+            s = _saturation_of(v, diff)
             hue = _hue(b, g, r, v, diff)
             hsv[y, x, 0] = hue
             hsv[y, x, 1] = s
