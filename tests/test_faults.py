@@ -620,3 +620,36 @@ def test_14_a_spreadsheet_bom_is_accepted(tmp_path: Path,
     table.write_bytes("\ufeff".encode() + text.replace("\n", "\r\n").encode())
     assert main(["calibrate", str(table)]) == 0
     assert "range: {model: power, a: 58957.7, b: -0.943419}" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_7_a_signal_between_a_tick_and_its_record_keeps_the_count_whole(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        sig: int) -> None:
+    """A signal that lands after the tree ticked but before the tick is logged (CI caught one:
+    the report said 22 ticks, the log's last tick was n=20) is raised once the tick is written."""
+    from marknav.runs.runlog import Recorder
+
+    original = Recorder.panel
+    calls = {"n": 0}
+
+    def panel(self: Recorder, now: float, overruns: int) -> dict[str, Any]:
+        calls["n"] += 1
+        if calls["n"] == 7:  # inside the seventh tick's bookkeeping, before its record
+            os.kill(os.getpid(), sig)
+        return original(self, now, overruns)
+
+    monkeypatch.setattr(Recorder, "panel", panel)
+    report_path = tmp_path / "r.json"
+    code = main(["run", str(SLALOM), "--max-time", "30", "--tree", "none",
+                 "--report", str(report_path)])
+    err = capsys.readouterr().err
+    assert code == 130, err
+    report = json.loads(report_path.read_text())
+    assert report["reason"].startswith("interrupted")
+    records = [json.loads(line) for line in
+               (tmp_path / "r.events.jsonl").read_text().splitlines()]
+    ticks = [r for r in records if r["kind"] == "tick"]
+    assert [r["n"] for r in ticks] == list(range(7))
+    assert records[-1]["ticks"] == report["ticks"] == 7
+    assert report["sim_final"]["wheels_mm_s"] == [0, 0]

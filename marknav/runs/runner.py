@@ -23,6 +23,7 @@ from typing import Any, Protocol
 import py_trees
 from py_trees.common import Status
 
+from marknav import signals
 from marknav.behaviours.composites import tick_now
 from marknav.clock import Clock
 from marknav.drivers.robot import ESTOPPED, FAULT, Robot
@@ -206,19 +207,25 @@ def run_tree(
                 tick_times.append(dt)
                 if dt > period:
                     report.overruns += 1
-                report.ticks += 1
                 now = env.clock.now() - t0
                 status = root.status
-                safety = env.safety_events()
-                for ev in safety[n_safety:]:  # clock time -> run time (never before 0)
-                    t_ev = max(0.0, float(ev["t"]) - t0) if "t" in ev else now
-                    events.write(t_ev, "safety", **{k: v for k, v in ev.items() if k != "t"})
-                n_safety = len(safety)
-                if status != last_status:
-                    events.write(now, "status", status=status.value, active=active_path(root))
-                    last_status = status
-                if observer is not None:
-                    observer.tick(now, report.overruns)
+                # The tick's count, its safety events, status and record go in together: a
+                # signal arriving among them is raised once all are written, so the report's
+                # tick count always matches the run log's last tick.
+                with signals.deferred():
+                    report.ticks += 1
+                    safety = env.safety_events()
+                    for ev in safety[n_safety:]:  # clock time -> run time (never before 0)
+                        t_ev = max(0.0, float(ev["t"]) - t0) if "t" in ev else now
+                        events.write(t_ev, "safety",
+                                     **{k: v for k, v in ev.items() if k != "t"})
+                    n_safety = len(safety)
+                    if status != last_status:
+                        events.write(now, "status", status=status.value,
+                                     active=active_path(root))
+                        last_status = status
+                    if observer is not None:
+                        observer.tick(now, report.overruns)
                 if status == Status.SUCCESS:
                     report.outcome, report.reason = SUCCESS, "every waypoint passed"
                     break
