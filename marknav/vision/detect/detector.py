@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 from collections.abc import Sequence
 
@@ -40,6 +41,8 @@ from marknav.vision.detect.suppress import _suppress_duplicates
 from marknav.vision.palette import DEFAULT_PALETTE, HUE_MAX, Palette
 
 __all__ = ["Detector", "detect_marks"]
+
+log = logging.getLogger("marknav.vision.detect")
 
 #: The share of ``min_chroma_contrast`` a mark cut out of a floor of its own hue by saturation
 #: must reach (the cut has measured a saturation gap; the colour difference is small).
@@ -82,6 +85,11 @@ class Detector(_ArcMarks):
         self._kernel3 = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
         self.last_gains: tuple[float, float, float] = (1.0, 1.0, 1.0)
         self.last_grey_level: float = 0.0
+        #: Blob readings the last frame did not get (``DetectorConfig.max_readings``), and the
+        #: frames so far that were cut short so.
+        self.last_skipped = 0
+        self.crowded_frames = 0
+        self._readings_left = 0
         self._buffers = SearchBuffers()
         warm_up()  # the detector's compiled loops, loaded before the first frame
 
@@ -119,6 +127,7 @@ class Detector(_ArcMarks):
                                    self._kernel if cfg.open_size > 1 else None,
                                    self._buffers, self._horizon_band(h, scale))
         small, hsv, mask = products.small, products.hsv, products.mask
+        self.last_skipped, self._readings_left = 0, cfg.max_readings
         if products.boxes is not None and not products.boxes:
             return []  # no seed anywhere (the gate's rectangles): an empty mask, no blob
         contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
@@ -132,7 +141,8 @@ class Detector(_ArcMarks):
         # small (a green disc on a green carpet: chroma 36-41 at floor S 170-180): the faint test
         # holds them to two thirds of its floor (small clutter the cut finds measures 17-24).
         by_saturation: list[Mark] = []  # (held, so that their ids stay theirs)
-        for contour in contours:
+        candidates: list[tuple[int, Contour, float]] = []
+        for i, contour in enumerate(contours):
             if len(contour) < 6:
                 continue
             area = cv2.contourArea(contour)
@@ -142,6 +152,14 @@ class Detector(_ArcMarks):
                 _, y, _, bh = cv2.boundingRect(contour)
                 if y > band[1] or y + bh < band[0]:
                     continue
+            candidates.append((i, contour, area))
+        # Read largest first (a crowded frame's readings go to the nearest marks), reported in
+        # the contours' order.
+        by_blob: dict[int, list[Mark]] = {}
+        for i, contour, area in sorted(candidates, key=lambda c: -c[2]):
+            if self._readings_left <= 0:
+                self.last_skipped += 1
+                continue
             found = self._blob(frame, contour, area)
             if not found:
                 # Read again per hue, and cut by saturation (a mark on a floor of its own hue
@@ -152,11 +170,15 @@ class Detector(_ArcMarks):
                     cut = self._split_saturation(frame, contour, area, min_area)
                     by_saturation.extend(cut)
                     found = found + cut
-            marks.extend(found)
+            by_blob[i] = found
+        marks.extend(m for i in sorted(by_blob) for m in by_blob[i])
         if cfg.bridge_px > 0 and len(contours) >= 2:
             # Any blobs may be pieces of a mark cut by a thin occluder (a piece can give a
             # partial mark of the wrong size on its own: the joined whole then outscores it).
-            marks.extend(self._bridged(frame, contours, min_area))
+            if self._readings_left > 0:
+                marks.extend(self._bridged(frame, contours, min_area))
+            else:
+                self.last_skipped += 1  # (at least one reading: the joined pieces')
         if band is not None:
             lo, hi = (band[0] + 0.5) * scale - 0.5, (band[1] + 0.5) * scale - 0.5
             marks = [m for m in marks if lo <= m.y <= hi]
@@ -169,7 +191,22 @@ class Detector(_ArcMarks):
                      if not self._faint(image, m, _SATURATION_CUT_SHARE if id(m) in cut_ids
                                         else 1.0)]
         marks.sort(key=lambda m: (-m.radius, m.x, m.y))
+        if self.last_skipped:
+            self.crowded_frames += 1
+            (log.warning if self.crowded_frames == 1 else log.debug)(
+                "a crowded frame: %d blob readings left unread after the first %d "
+                "(DetectorConfig.max_readings; %d such frames so far)",
+                self.last_skipped, cfg.max_readings, self.crowded_frames)
         return marks
+
+    def _reading(self) -> bool:
+        """Whether the frame's budget (``max_readings``) allows one more blob reading (spent
+        if so; counted in ``last_skipped`` if not)."""
+        if self._readings_left > 0:
+            self._readings_left -= 1
+            return True
+        self.last_skipped += 1
+        return False
 
     def _faint(self, image: U8Array, mark: Mark, share: float = 1.0) -> bool:
         """Whether ``mark``'s colour hardly stands out from its surroundings (:mod:`.faint`):
@@ -332,7 +369,7 @@ class Detector(_ArcMarks):
         that are no part of it, and their origin)."""
         cfg = self.config
         sh, sw = frame.mask.shape
-        if len(shape) < 6 or cv2.contourArea(shape) < min_area:
+        if len(shape) < 6 or cv2.contourArea(shape) < min_area or not self._reading():
             return []
         bx, by, bw, bh = cv2.boundingRect(shape)
         if bx <= 0 or by <= 0 or bx + bw >= sw or by + bh >= sh:
@@ -458,6 +495,8 @@ class Detector(_ArcMarks):
         return marks
 
     def _blob(self, frame: _Frame, contour: Contour, area: float) -> list[Mark]:
+        if not self._reading():
+            return []
         cfg = self.config
         s = frame.sx
         bx, by, bw, bh = cv2.boundingRect(contour)
