@@ -6,7 +6,8 @@ versions) once at the top level, then a section per benchmark:
 
 - ``vision`` — the detector against plain ``HoughCircles`` on fixed synthetic frames
   (:func:`marknav.vision.bench.run_vision_bench`), and on the real photographs and composited
-  frames of the source tree's ``tests/data`` (:func:`marknav.vision.bench_real.run_real_bench`);
+  frames of the source tree's ``tests/data`` (:func:`marknav.vision.bench_real.run_real_bench`),
+  and its worst case, crowded frames (:func:`marknav.vision.bench_crowded.run_crowded_bench`);
 - ``tree`` — µs per behaviour-tree tick, slalom and a 50-waypoint route, mocked perception
   (:func:`marknav.runs.bench.bench_tree`);
 - ``loop`` — a simulated mission with rendering and detection: cycle times, overruns, speed-up
@@ -56,12 +57,14 @@ class Benchmark:
 
 def _vision(quick: bool) -> dict[str, Any]:
     from marknav.vision.bench import run_vision_bench
+    from marknav.vision.bench_crowded import run_crowded_bench
     from marknav.vision.bench_real import default_corpus, run_real_bench
 
     result = run_vision_bench(frames=10, repeats=1) if quick else run_vision_bench()
     det, hsv = result["detector_ms_p50"], result["hsv_ms_p50"]
     assert isinstance(det, float) and isinstance(hsv, float)
     result["detector_over_hsv_p50"] = round(det / max(hsv, 1e-9), 2)
+    result["crowded"] = run_crowded_bench(1 if quick else 3)
     corpus = default_corpus()
     if corpus is None:
         result["real"] = "no corpus: run from a source checkout (tests/data/labels.json)"

@@ -89,6 +89,8 @@ class Detector(_ArcMarks):
         #: frames so far that were cut short so.
         self.last_skipped = 0
         self.crowded_frames = 0
+        #: Blob readings the last frame got.
+        self.last_readings = 0
         self._readings_left = 0
         self._buffers = SearchBuffers()
         warm_up()  # the detector's compiled loops, loaded before the first frame
@@ -127,7 +129,7 @@ class Detector(_ArcMarks):
                                    self._kernel if cfg.open_size > 1 else None,
                                    self._buffers, self._horizon_band(h, scale))
         small, hsv, mask = products.small, products.hsv, products.mask
-        self.last_skipped, self._readings_left = 0, cfg.max_readings
+        self.last_skipped, self.last_readings, self._readings_left = 0, 0, cfg.max_readings
         if products.boxes is not None and not products.boxes:
             return []  # no seed anywhere (the gate's rectangles): an empty mask, no blob
         contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
@@ -191,6 +193,7 @@ class Detector(_ArcMarks):
                      if not self._faint(image, m, _SATURATION_CUT_SHARE if id(m) in cut_ids
                                         else 1.0)]
         marks.sort(key=lambda m: (-m.radius, m.x, m.y))
+        self.last_readings = cfg.max_readings - self._readings_left
         if self.last_skipped:
             self.crowded_frames += 1
             (log.warning if self.crowded_frames == 1 else log.debug)(
