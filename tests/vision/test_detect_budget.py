@@ -1,18 +1,21 @@
 """The detector's reading budget (``DetectorConfig.max_readings``): a crowded frame stops after
 the budget's blob readings, the largest blobs first, and says so; frames within it are read
-whole."""
+whole. And suppression's shortcut for a crowded frame's far-apart marks."""
 
 from __future__ import annotations
 
 import logging
+import math
 
 import cv2
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from marknav.vision.bench import SceneSpec, render_scene
 from marknav.vision.bench_crowded import crowded_frames, run_crowded_bench
-from marknav.vision.detect import Detector, DetectorConfig
+from marknav.vision.detect import Detector, DetectorConfig, Mark, suppress
 from marknav.vision.palette import DEFAULT_PALETTE
 
 
@@ -93,3 +96,19 @@ def test_the_crowded_bench_reports_each_frame_within_the_budget() -> None:
             assert 0 < cell["readings"] <= budget and cell["ms"] > 0
     mosaic = figures["mosaic_8px_640"]["detector"]
     assert isinstance(mosaic, dict) and mosaic["readings"] == budget and mosaic["unread"] > 0
+
+
+_marks = st.builds(
+    lambda x, y, a, k, angle: Mark("red", x, y, a, (a, a * k), angle, "ellipse", 0.5),
+    st.floats(0, 200), st.floats(0, 200), st.floats(0.5, 80), st.floats(0.2, 1.0),
+    st.floats(0, 179.9))
+
+
+@settings(max_examples=400, deadline=None)
+@given(_marks, _marks)
+def test_suppression_skips_only_pairs_that_cannot_be_duplicates(a: Mark, b: Mark) -> None:
+    # Either test of a duplicate (centres close for their size, or one centre inside the other
+    # ellipse) implies the cheap proximity test that lets a crowded frame's far pairs go.
+    close = math.hypot(a.x - b.x, a.y - b.y) < 0.5 * min(a.radius, b.radius)
+    if close or suppress._centre_in(a, b) or suppress._centre_in(b, a):
+        assert suppress._near(a, b)
