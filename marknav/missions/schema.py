@@ -292,6 +292,13 @@ class DetectSettings(BaseModel):
         "Painted marks measure 108 and more in the simulator, 49 and more composited into "
         "photographs. 0: off (pale or washed-out marks).",
     )
+    max_readings: int = Field(
+        default=DetectorConfig.max_readings, ge=1, le=100_000,
+        description="Most blobs one frame is searched for marks in, the largest first: a "
+        "crowded view (a poster of coloured squares, a rug) gives hundreds, each costing "
+        "0.05–1 ms; the rest of that frame is left unread and a warning logged. The project's "
+        "scenes and photographs need at most 258. Lower it on a slow computer.",
+    )
 
 
 class Camera(BaseModel):

@@ -50,10 +50,11 @@ def camera_detector_config(*, width: int, height: int, focal_px: float, mark_rad
                            horizon_row: float | None = None,
                            tint_limit: float | None = None,
                            min_chroma_contrast: float = DetectorConfig.min_chroma_contrast,
+                           max_readings: int = DetectorConfig.max_readings,
                            ) -> DetectorConfig:
     """The detector config for a ``width`` × ``height`` camera of focal length ``focal_px``
     (``horizon_row``: the principal point's row; default the image centre's; ``tint_limit``,
-    ``min_chroma_contrast``: :class:`DetectorConfig`'s)."""
+    ``min_chroma_contrast``, ``max_readings``: :class:`DetectorConfig`'s)."""
     row, tolerance = None, DetectorConfig.horizon_tolerance_px
     if horizon_tolerance_deg is not None:
         t = math.tan(math.radians(horizon_tolerance_deg))
@@ -61,11 +62,13 @@ def camera_detector_config(*, width: int, height: int, focal_px: float, mark_rad
         tolerance = (focal_px + width / 2.0) * t + HORIZON_SLACK_PX
     if max_range_mm is None:
         return DetectorConfig(horizon_row=row, horizon_tolerance_px=tolerance,
-                              tint_limit=tint_limit, min_chroma_contrast=min_chroma_contrast)
+                              tint_limit=tint_limit, min_chroma_contrast=min_chroma_contrast,
+                              max_readings=max_readings)
     return replace(DetectorConfig.for_camera(
         focal_px=focal_px, mark_radius_mm=mark_radius_mm, max_range_mm=max_range_mm,
         floor_px=ROBOT_FLOOR_PX, horizon_row=row, horizon_tolerance_px=tolerance),
-        tint_limit=tint_limit, min_chroma_contrast=min_chroma_contrast)
+        tint_limit=tint_limit, min_chroma_contrast=min_chroma_contrast,
+        max_readings=max_readings)
 
 
 class CameraDetector:
@@ -75,10 +78,12 @@ class CameraDetector:
                  mark_radius_mm: float, max_range_mm: float | None,
                  horizon_tolerance_deg: float | None, horizon_row: float | None = None,
                  tint_limit: float | None = None,
-                 min_chroma_contrast: float = DetectorConfig.min_chroma_contrast) -> None:
+                 min_chroma_contrast: float = DetectorConfig.min_chroma_contrast,
+                 max_readings: int = DetectorConfig.max_readings) -> None:
         self.palette = palette
         self._tint_limit = tint_limit
         self._min_chroma_contrast = min_chroma_contrast
+        self._max_readings = max_readings
         self._camera = (width, height, focal_px, horizon_row)
         self._mark_radius_mm = mark_radius_mm
         self._max_range_mm = max_range_mm
@@ -96,7 +101,8 @@ class CameraDetector:
                    max_range_mm=cam.detect.max_range_mm,
                    horizon_tolerance_deg=cam.detect.horizon_tolerance_deg,
                    horizon_row=horizon_row, tint_limit=cam.detect.tint_limit,
-                   min_chroma_contrast=cam.detect.min_chroma_contrast)
+                   min_chroma_contrast=cam.detect.min_chroma_contrast,
+                   max_readings=cam.detect.max_readings)
 
     def config_for(self, width: int, height: int) -> DetectorConfig:
         """The config frames of ``width`` × ``height`` are searched with."""
@@ -111,7 +117,7 @@ class CameraDetector:
                 width=width, height=height, focal_px=focal * k,
                 mark_radius_mm=self._mark_radius_mm, max_range_mm=self._max_range_mm,
                 horizon_tolerance_deg=self._tolerance_deg, tint_limit=self._tint_limit,
-                min_chroma_contrast=self._min_chroma_contrast,
+                min_chroma_contrast=self._min_chroma_contrast, max_readings=self._max_readings,
                 horizon_row=None if row is None else (row + 0.5) * height / h0 - 0.5)
             detector = self._detectors[(width, height)] = Detector(self.palette, config)
         return detector

@@ -88,6 +88,25 @@ def test_the_faint_floor_comes_from_the_mission(tmp_path: Path) -> None:
     assert found["  detect: {min_chroma_contrast: 0}\n"] == ["blue", "red"]
 
 
+def test_the_reading_budget_comes_from_the_mission(tmp_path: Path) -> None:
+    """``camera.detect.max_readings`` (default 400): with a budget of one blob, of three red
+    discs on the horizon only the largest is read; frames of another size keep it."""
+    image = np.full((480, 640, 3), 128, np.uint8)
+    for x, r in ((120, 14), (320, 40), (520, 18)):
+        cv2.circle(image, (x, 240), r, (0, 0, 230), -1, cv2.LINE_AA)
+    found = {}
+    for budget in (None, 1):
+        detect = "" if budget is None else f"  detect: {{max_readings: {budget}}}\n"
+        camera = CameraDetector.for_mission(load_mission(_mission(tmp_path, detect)))
+        assert camera.config_for(640, 480).max_readings == (budget or 400)
+        assert camera.config_for(320, 240).max_readings == (budget or 400)
+        found[budget] = [round(m.x) for m in camera.detect(image)]
+        # two discs unread, and the pass joining pieces across thin occluders
+        assert camera.detector_for(640, 480).last_skipped == (3 if budget else 0)
+    assert sorted(found[None]) == [120, 320, 520]
+    assert found[1] == [320]
+
+
 def test_marks_off_the_horizon_and_too_far_are_not_reported(tmp_path: Path) -> None:
     mission = load_mission(_mission(tmp_path, "  detect: {max_range_mm: 6000}\n"))
     image = np.full((480, 640, 3), 128, np.uint8)
@@ -103,6 +122,8 @@ def test_marks_off_the_horizon_and_too_far_are_not_reported(tmp_path: Path) -> N
     ("  detect: {horizon_tolerance_deg: 45}\n", "camera.detect.horizon_tolerance_deg:"),
     ("  detect: {horizon: 3}\n", "camera.detect.horizon:"),
     ("  detect: {min_chroma_contrast: -3}\n", "6:33: camera.detect.min_chroma_contrast:"),
+    ("  detect: {max_readings: 0}\n", "6:26: camera.detect.max_readings:"),
+    ("  detect: {max_readings: 2.5}\n", "6:26: camera.detect.max_readings:"),
 ])
 def test_bad_detect_settings_name_the_line_and_field(tmp_path: Path, detect: str, message: str,
                                                      capsys: pytest.CaptureFixture[str]) -> None:

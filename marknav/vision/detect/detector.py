@@ -85,8 +85,9 @@ class Detector(_ArcMarks):
         self._kernel3 = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
         self.last_gains: tuple[float, float, float] = (1.0, 1.0, 1.0)
         self.last_grey_level: float = 0.0
-        #: Blob readings the last frame did not get (``DetectorConfig.max_readings``), and the
-        #: frames so far that were cut short so.
+        #: Blob readings the last frame did not get (``DetectorConfig.max_readings``; the pass
+        #: that joins pieces across thin occluders, skipped, counts one), and the frames so far
+        #: that were cut short so.
         self.last_skipped = 0
         self.crowded_frames = 0
         #: Blob readings the last frame got.
@@ -180,7 +181,7 @@ class Detector(_ArcMarks):
             if self._readings_left > 0:
                 marks.extend(self._bridged(frame, contours, min_area))
             else:
-                self.last_skipped += 1  # (at least one reading: the joined pieces')
+                self.last_skipped += 1  # the joining pass, left out whole
         if band is not None:
             lo, hi = (band[0] + 0.5) * scale - 0.5, (band[1] + 0.5) * scale - 0.5
             marks = [m for m in marks if lo <= m.y <= hi]
