@@ -653,3 +653,63 @@ def test_7_a_signal_between_a_tick_and_its_record_keeps_the_count_whole(
     assert [r["n"] for r in ticks] == list(range(7))
     assert records[-1]["ticks"] == report["ticks"] == 7
     assert report["sim_final"]["wheels_mm_s"] == [0, 0]
+
+
+def test_7_a_view_that_blocks_cannot_keep_a_signal_from_stopping_the_wheels(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+) -> None:
+    """The live view draws outside the runner's signal hold: a terminal that blocks (a paused
+    pager, a stalled SSH session) must not keep Ctrl-C or SIGTERM from stopping the run."""
+    import marknav.runs.display as display
+
+    class StuckView:
+        def __init__(self) -> None:
+            self.updates = 0
+
+        def update(self, state: Any, panel: Any) -> None:
+            self.updates += 1
+            if self.updates == 5:
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(30)  # a write that does not return
+
+        def close(self) -> None:
+            pass
+
+    monkeypatch.setattr(display, "make_view", lambda *a, **k: StuckView())
+    report_path = tmp_path / "r.json"
+    t0 = time.monotonic()
+    code = main(["run", str(SLALOM), "--max-time", "30", "--tree", "ascii",
+                 "--report", str(report_path)])
+    assert time.monotonic() - t0 < 15
+    assert code == 130, capsys.readouterr().err
+    report = json.loads(report_path.read_text())
+    assert report["reason"] == "interrupted (SIGTERM)" and report["ticks"] == 5
+    assert report["sim_final"]["wheels_mm_s"] == [0, 0]
+
+
+def test_7_a_verdict_reached_in_the_tick_a_signal_lands_in_stands(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+) -> None:
+    """The run's time limit is reached in the same tick as a SIGTERM: the report keeps the
+    verdict (failed, time limit), the exit code says the run was interrupted."""
+    from marknav.runs.runlog import Recorder
+
+    original = Recorder.panel
+
+    def panel(self: Recorder, now: float, overruns: int) -> dict[str, Any]:
+        if now >= 1.0:
+            os.kill(os.getpid(), signal.SIGTERM)
+        return original(self, now, overruns)
+
+    monkeypatch.setattr(Recorder, "panel", panel)
+    report_path = tmp_path / "r.json"
+    code = main(["run", str(SLALOM), "--max-time", "1", "--tree", "none",
+                 "--report", str(report_path)])
+    assert code == 130, capsys.readouterr().err
+    report = json.loads(report_path.read_text())
+    assert (report["outcome"], report["reason"]) == ("failed", "time limit: 1 s")
+    records = [json.loads(line) for line in
+               (tmp_path / "r.events.jsonl").read_text().splitlines()]
+    assert records[-1]["kind"] == "end" and records[-1]["outcome"] == "failed"
+    assert records[-1]["ticks"] == report["ticks"] == max(
+        r["n"] for r in records if r["kind"] == "tick") + 1

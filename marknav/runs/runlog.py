@@ -120,10 +120,15 @@ class Recorder:
         self._last_saved: float | None = None
         self._started = False
         self.logging = events.path is not None or bool(self.sinks)
+        #: What :meth:`show` draws and sends: the last tick's panel, record and frames.
+        self._shown: tuple[float, dict[str, Any], dict[str, Any] | None,
+                           list[tuple[dict[str, Any], Any]]] | None = None
 
     # -- called by the runner ----------------------------------------------------------------
     def tick(self, now: float, overruns: int) -> None:
-        """After each tick: ``now`` is run time (s), ``overruns`` so far."""
+        """After each tick: ``now`` is run time (s), ``overruns`` so far. Writes the tick's
+        records to the run log (the runner holds signals off meanwhile); :meth:`show` then
+        draws it."""
         if not self._started:
             self._started = True
             self._begin(now)
@@ -147,11 +152,22 @@ class Recorder:
                     self._save_image(now, fr, image)
                     self.events.write(now, "frame", **fr)
                 self.events.write(now, "tick", **record)
+        self._shown = (now, panel, record, frames)
+        self.n += 1
+
+    def show(self) -> None:
+        """The last tick on the live view and the sinks (the viewer). Outside the runner's
+        signal hold: a terminal or a viewer that blocks cannot keep Ctrl-C from stopping the
+        wheels."""
+        if self._shown is None:
+            return
+        now, panel, record, frames = self._shown
+        self._shown = None
+        if record is not None:
             for sink in self.sinks:
                 sink.tick(now, record, frames, self.state)
         if self.view is not None:
             self.view.update(self.state, panel)
-        self.n += 1
 
     def finish(self, report: RunReport) -> None:
         """Before the runner's ``end`` record: the report, with ground truth when there is some."""

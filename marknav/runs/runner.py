@@ -71,10 +71,14 @@ class Environment(Protocol):
 
 
 class TickObserver(Protocol):
-    """Watches a run: ``tick`` after each tick (run time, overruns so far), ``finish`` before
-    the event log's ``end`` record."""
+    """Watches a run: ``tick`` after each tick (run time, overruns so far; it writes records,
+    with signals held off until it returns), then ``show`` (a live view, a viewer: what may
+    block on a terminal or a socket, so signals are not held), ``finish`` before the event
+    log's ``end`` record."""
 
     def tick(self, now: float, overruns: int) -> None: ...
+
+    def show(self) -> None: ...
 
     def finish(self, report: RunReport) -> None: ...
 
@@ -142,6 +146,25 @@ class MissionTree(py_trees.trees.BehaviourTree):
 _signals_interrupt = interrupting
 
 
+def _verdict(root: py_trees.behaviour.Behaviour, status: Status, now: float,
+             max_time_s: float,
+             classify: Callable[[py_trees.behaviour.Behaviour], tuple[bool, str]] | None,
+             robot: Robot) -> tuple[str, str] | None:
+    """The run's (outcome, reason) after a tick, or None while it goes on."""
+    if status == Status.SUCCESS:
+        return SUCCESS, "every waypoint passed"
+    if status == Status.FAILURE:
+        if classify is not None:
+            aborted, reason = classify(root)
+        else:
+            aborted, reason = False, failure_reason(root)
+        aborted = aborted or robot.safety_state in (FAULT, ESTOPPED)
+        return (ABORTED if aborted else FAILED), reason
+    if now >= max_time_s:
+        return FAILED, f"time limit: {max_time_s:g} s"
+    return None
+
+
 def failure_reason(root: py_trees.behaviour.Behaviour) -> str:
     """The deepest failed node and its feedback: why the tree failed."""
     reason = ""
@@ -188,6 +211,7 @@ def run_tree(
     t0 = env.clock.now()
     last_status: Status | None = None
     n_safety = 0
+    verdict: tuple[str, str] | None = None  # (outcome, reason), once the run has one
     report.outcome, report.reason = ABORTED, "did not start"
     try:
         with _signals_interrupt():
@@ -209,9 +233,10 @@ def run_tree(
                     report.overruns += 1
                 now = env.clock.now() - t0
                 status = root.status
-                # The tick's count, its safety events, status and record go in together: a
-                # signal arriving among them is raised once all are written, so the report's
-                # tick count always matches the run log's last tick.
+                # The tick's count, its safety events, status, record and verdict go in
+                # together: a signal arriving among them is raised once all are written, so the
+                # report's tick count always matches the run log's last tick, and a verdict
+                # reached in that tick stands.
                 with signals.deferred():
                     report.ticks += 1
                     safety = env.safety_events()
@@ -226,21 +251,13 @@ def run_tree(
                         last_status = status
                     if observer is not None:
                         observer.tick(now, report.overruns)
-                if status == Status.SUCCESS:
-                    report.outcome, report.reason = SUCCESS, "every waypoint passed"
-                    break
-                if status == Status.FAILURE:
-                    if classify is not None:
-                        aborted, reason = classify(root)
-                    else:
-                        aborted, reason = False, failure_reason(root)
-                    aborted = aborted or env.robot.safety_state in (FAULT, ESTOPPED)
-                    report.outcome = ABORTED if aborted else FAILED
-                    report.reason = reason
-                    break
-                if now >= options.max_time_s:
-                    report.outcome = FAILED
-                    report.reason = f"time limit: {options.max_time_s:g} s"
+                    verdict = _verdict(root, status, now, options.max_time_s, classify,
+                                       env.robot)
+                    if verdict is not None:
+                        report.outcome, report.reason = verdict
+                if observer is not None:
+                    observer.show()
+                if verdict is not None:
                     break
                 t_next += period
                 if options.realtime and not options.sleep:
@@ -249,10 +266,12 @@ def run_tree(
                         time.sleep(lag)
                 env.advance(t_next)
     except Interrupted as exc:
-        report.outcome, report.reason = ABORTED, f"interrupted ({exc})"
+        if verdict is None:
+            report.outcome, report.reason = ABORTED, f"interrupted ({exc})"
         raise
     except KeyboardInterrupt:
-        report.outcome, report.reason = ABORTED, "interrupted (SIGINT)"
+        if verdict is None:
+            report.outcome, report.reason = ABORTED, "interrupted (SIGINT)"
         raise
     finally:
         # Wheels first, then everything else.
