@@ -85,9 +85,9 @@ class Detector(_ArcMarks):
         self._kernel3 = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
         self.last_gains: tuple[float, float, float] = (1.0, 1.0, 1.0)
         self.last_grey_level: float = 0.0
-        #: Blob readings the last frame did not get (``DetectorConfig.max_readings``; the pass
-        #: that joins pieces across thin occluders, skipped, counts one), and the frames so far
-        #: that were cut short so.
+        #: Blob readings the last frame did not get (``DetectorConfig.max_readings``; at
+        #: least: a blob left unread is not split into the parts it would have given), and
+        #: the frames so far that were cut short so.
         self.last_skipped = 0
         self.crowded_frames = 0
         #: Blob readings the last frame got.
@@ -178,10 +178,7 @@ class Detector(_ArcMarks):
         if cfg.bridge_px > 0 and len(contours) >= 2:
             # Any blobs may be pieces of a mark cut by a thin occluder (a piece can give a
             # partial mark of the wrong size on its own: the joined whole then outscores it).
-            if self._readings_left > 0:
-                marks.extend(self._bridged(frame, contours, min_area))
-            else:
-                self.last_skipped += 1  # the joining pass, left out whole
+            marks.extend(self._bridged(frame, contours, min_area))
         if band is not None:
             lo, hi = (band[0] + 0.5) * scale - 0.5, (band[1] + 0.5) * scale - 0.5
             marks = [m for m in marks if lo <= m.y <= hi]
@@ -261,6 +258,9 @@ class Detector(_ArcMarks):
                       if cv2.pointPolygonTest(outline, p, False) >= 0]
             if len(inside) < 2:
                 continue
+            if self._readings_left <= 0:
+                self.last_skipped += 1  # a joined shape left unread (and the rest with it)
+                break
             whole = self._bridged_one(frame, outline, min_area) or \
                 self._without_bars(frame, inside, kernel, min_area)
             if whole:

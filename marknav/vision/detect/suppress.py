@@ -57,4 +57,4 @@ def _near(a: Mark, b: Mark) -> bool:
     margin: this only skips, never decides)."""
     dx, dy = a.x - b.x, a.y - b.y
     reach = 1.001 * max(a.radius, b.radius, a.axes[0], a.axes[1], b.axes[0], b.axes[1]) + 1e-6
-    return dx * dx + dy * dy < reach * reach
+    return not dx * dx + dy * dy >= reach * reach  # (NaN: near, the tests decide)
