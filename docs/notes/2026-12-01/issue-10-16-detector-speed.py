@@ -123,7 +123,9 @@ def compare(folder: Path, baseline: Path, repeats: int) -> dict[str, Any]:
     def detectors(kind: str, palette: Any) -> tuple[Callable[[Any], Any], Callable[[Any], Any]]:
         if kind == "loop":
             cfg = data["loop_cfg"]
-            fields = {f.name: getattr(cfg, f.name) for f in dataclasses.fields(cfg)}
+            known = {f.name for f in dataclasses.fields(old.DetectorConfig)}
+            fields = {f.name: getattr(cfg, f.name) for f in dataclasses.fields(cfg)
+                      if f.name in known}  # (settings added since the baseline: defaults)
             return (new.Detector(palette, cfg).detect,
                     old.Detector(old_palette(palette), old.DetectorConfig(**fields)).detect)
         if kind == "robot":
