@@ -324,3 +324,31 @@ class _ColourStage(_DetectorBase):
         w0, w1, w2 = k * d0, k * d1, k * d2
         offset = -(w0 * back_bgr[0] + w1 * back_bgr[1] + w2 * back_bgr[2])
         return np.array([[w0, w1, w2, offset]], np.float32)
+
+
+def _window_sum(hist: npt.NDArray[np.float64], half: int) -> npt.NDArray[np.float64]:
+    """Sum of a circular histogram over ±``half`` bins around each bin."""
+    padded = np.concatenate([hist[-half - 1:], hist, hist[:half]])
+    cs = np.cumsum(padded)
+    out: npt.NDArray[np.float64] = cs[2 * half + 1:] - cs[:len(hist)]
+    return out
+
+
+def _hue_peaks(hist: npt.NDArray[np.float64], min_count: float, gap: float) -> list[float]:
+    """Hues (OpenCV units) of the separate clusters of a circular hue histogram: local maxima of
+    the histogram smoothed over ±2 hue, at least ``gap`` apart, each holding ``min_count``
+    pixels within ``gap / 2`` of it, largest first."""
+    n = len(hist)
+    smooth = _window_sum(hist, 2)
+    near = _window_sum(hist, max(1, int(gap // 2)))
+    left = np.concatenate([smooth[-1:], smooth[:-1]])
+    right = np.concatenate([smooth[1:], smooth[:1]])
+    is_peak = (smooth > 0) & (smooth >= left) & (smooth >= right) & (near >= min_count)
+    candidates = np.flatnonzero(is_peak)
+    if len(candidates) < 2:
+        return []
+    peaks: list[float] = []
+    for i in candidates[np.argsort(-smooth[candidates], kind="stable")].tolist():
+        if all(abs((i - p + n / 2) % n - n / 2) >= gap for p in peaks):
+            peaks.append(float(i))
+    return peaks

@@ -19,11 +19,10 @@ from collections.abc import Sequence
 
 import cv2
 import numpy as np
-import numpy.typing as npt
 
 from marknav.vision.detect.arcs import _ArcMarks
 from marknav.vision.detect.base import _Frame
-from marknav.vision.detect.colour import _NO_COLOUR, _diagonal, balance_subsample
+from marknav.vision.detect.colour import _NO_COLOUR, _diagonal, _hue_peaks, balance_subsample
 from marknav.vision.detect.faint import chroma_contrast
 from marknav.vision.detect.gate import SearchBuffers, search_products
 from marknav.vision.detect.geometry import (
@@ -581,34 +580,6 @@ class Detector(_ArcMarks):
         if len(marks) > len(single) or len(marks) == len(single) >= 2:
             return marks
         return single
-
-
-def _window_sum(hist: npt.NDArray[np.float64], half: int) -> npt.NDArray[np.float64]:
-    """Sum of a circular histogram over ±``half`` bins around each bin."""
-    padded = np.concatenate([hist[-half - 1:], hist, hist[:half]])
-    cs = np.cumsum(padded)
-    out: npt.NDArray[np.float64] = cs[2 * half + 1:] - cs[:len(hist)]
-    return out
-
-
-def _hue_peaks(hist: npt.NDArray[np.float64], min_count: float, gap: float) -> list[float]:
-    """Hues (OpenCV units) of the separate clusters of a circular hue histogram: local maxima of
-    the histogram smoothed over ±2 hue, at least ``gap`` apart, each holding ``min_count``
-    pixels within ``gap / 2`` of it, largest first."""
-    n = len(hist)
-    smooth = _window_sum(hist, 2)
-    near = _window_sum(hist, max(1, int(gap // 2)))
-    left = np.concatenate([smooth[-1:], smooth[:-1]])
-    right = np.concatenate([smooth[1:], smooth[:1]])
-    is_peak = (smooth > 0) & (smooth >= left) & (smooth >= right) & (near >= min_count)
-    candidates = np.flatnonzero(is_peak)
-    if len(candidates) < 2:
-        return []
-    peaks: list[float] = []
-    for i in candidates[np.argsort(-smooth[candidates], kind="stable")].tolist():
-        if all(abs((i - p + n / 2) % n - n / 2) >= gap for p in peaks):
-            peaks.append(float(i))
-    return peaks
 
 
 def detect_marks(image: U8Array, palette: Palette = DEFAULT_PALETTE) -> list[Mark]:
