@@ -178,10 +178,7 @@ class PerceptionBase(MarknavBehaviour):
                 # misplaced sighting): choose again, from what is in view and the memory.
                 target = reselect(target, obs.marks, known, passed, pose)
                 self.write(keys.TARGET, target)
-            where = None
-            if target.remembered and not target.locked:
-                where = obs.pose if obs.pose is not None else self.robot.pose()
-            sighting = associate(obs.marks, target, passed, where)
+            sighting = associate(obs.marks, target, passed, pose, known)
             if sighting is not None:
                 self.write(keys.TARGET, with_sighting(target, sighting))
         # The text is built when something reads it (the live view, a failure's reason), not

@@ -168,3 +168,55 @@ def test_a_remembered_target_found_empty_where_it_should_be_is_chosen_again_at_o
     assert (target.sighting.world_x, target.sighting.world_y) == \
         pytest.approx((real.x_mm, real.y_mm), abs=5)
     assert all(k.world != ghost.world for k in rig.bb(keys.KNOWN, ()))
+
+
+class TurnLeft(py_trees.behaviour.Behaviour):
+    """Waits ``wait`` ticks, turns the robot left in place for ``ticks`` ticks, then SUCCESS."""
+
+    def __init__(self, robot, wait: int, ticks: int) -> None:
+        super().__init__("TurnLeft")
+        self.robot, self.wait, self.left = robot, wait, ticks
+
+    def update(self) -> Status:
+        if self.wait > 0:
+            self.wait -= 1
+            return Status.RUNNING
+        if self.left <= 0:
+            return Status.SUCCESS
+        self.left -= 1
+        self.robot.drive(left=-TURN_WHEEL, right=TURN_WHEEL)
+        return Status.RUNNING
+
+
+def test_a_target_that_leaves_the_view_stays_the_target(rig):
+    """Random mission 190, in the rig: the approach's target (0.9 m, 20° right) leaves the view
+    as the robot turns left; the next red down the course (4.9 m ahead) stays in view all the
+    while and does not become the target — the target is lost, so the search turns back to it,
+    and finds it."""
+    near = rig.perception.place("red", x_mm=308, y_mm=846)
+    far = rig.perception.place("red", x_mm=0, y_mm=4900)
+    node = SearchWhenLost()
+    tree = rig.tree(py_trees.composites.Sequence("Root", memory=False, children=[
+        rig.perception, py_trees.composites.Sequence("Pass", memory=True, children=[
+            SelectTarget(colour="red", waypoint=0), TurnLeft(rig.robot, 3, 13), node])]))
+    for _ in range(4):  # seen in 4 frames: remembered
+        rig.clock.advance(0.05)
+        tree.tick()
+    assert rig.bb(keys.TARGET).world == pytest.approx((near.x_mm, near.y_mm), abs=5)
+    lost = 0
+    for _ in range(12):  # 0.6 s at 40°/s: the near red 44° right, out of view
+        rig.clock.advance(0.05)
+        tree.tick()
+        target = rig.bb(keys.TARGET)
+        assert target.world == pytest.approx((near.x_mm, near.y_mm), abs=5)
+        marks = rig.bb(keys.MARKS)
+        assert any(m.world == pytest.approx((far.x_mm, far.y_mm), abs=5) for m in marks)
+        lost += not any(m.world == pytest.approx((near.x_mm, near.y_mm), abs=5) for m in marks)
+    assert lost >= 8
+    # Lost: the search turns right, back toward it, and finds it.
+    log = rig.run(tree, max_ticks=200)
+    assert log.reached and not node.forgot_memory
+    assert "looking for red #1: turning right" in log.records[0].feedback
+    target = rig.bb(keys.TARGET)
+    assert target.sighting is not None
+    assert target.sighting.world == pytest.approx((near.x_mm, near.y_mm), abs=5)

@@ -238,3 +238,31 @@ def test_a_remembered_target_is_taken_only_once_turned_toward_it():
     # A locked target is not affected (followed by position, strict gate).
     locked = replace(t, locked=True, remembered=False, world_x=900.0, world_y=2400.0)
     assert associate([nxt], locked, pose=facing_next) is nxt
+
+
+def test_an_unlocked_target_out_of_view_is_not_swapped_for_a_farther_mark_of_its_colour():
+    """Random mission 190: the approach's target, 0.9 m away and 33° right, left the view; the
+    nearest red in view was the next one down the course, 4.9 m ahead, and the approach took
+    it, passing the near one on the wrong side. The memory holds the near one out of view: no
+    sighting of the target this frame (the search turns back toward it)."""
+    near = seen("red", 500, 750)
+    known = remember((), [near, near, near])
+    chasing = target(sighting=near, world_x=near.world_x, world_y=near.world_y)
+    farther = seen("red", 0, 4900)
+    here = Pose(0.0, 0.0, math.pi / 2)
+    assert associate([farther], chasing, (), here, known) is None
+    # without the memory, or without the pose, the nearest of the colour in view, as before
+    assert associate([farther], chasing) == farther
+    assert associate([farther], chasing, (), None, known) == farther
+    # the target's own mark in view again: it
+    assert associate([farther, near], chasing, (), here, known) == near
+    # a mark in view not clearly nearer than the remembered one (by 500 mm) is taken ...
+    close = seen("red", -300, 1100)
+    assert associate([close], chasing, (), here, known) == close
+    # ... and so is one in view when the memory holds a mark of the colour elsewhere, not the
+    # target's own
+    elsewhere = remember((), [seen("red", -900, 300)] * 3)
+    assert associate([farther], chasing, (), here, elsewhere) == farther
+    # a mark passed already is no memory to keep
+    passed = [keys.PassedWaypoint(0, "w0", "red", "left", 1.0, near.world_x, near.world_y)]
+    assert associate([farther], chasing, passed, here, known) == farther
