@@ -155,3 +155,14 @@ def test_small_and_off_axis_marks_are_not_added() -> None:
     assert learner.samples == 0
     learner.add("red", (0.0, 0.0, 0.0), TRUE.radius_px(1200.0), 1200.0 * math.tan(0.15))
     assert learner.samples == 1
+
+
+def test_a_short_approach_learns_the_scale_only() -> None:
+    # Small marks reach the radius floor only near the bypass distance: an approach from
+    # 1.4 m to 1.15 m (ln r spreads 0.2, under min_log_spread) still learns the scale, and
+    # holds the exponent it cannot pin.
+    learner = RangeLawLearner(prior=PowerLaw(0.75 * 59752.0, -1.00242))
+    errors = _approach(learner, start=1200.0, stop=1450.0, step=10.0)
+    assert learner.steps and learner.rejected == 0
+    assert learner.law.b == pytest.approx(-1.00242, abs=1e-4)
+    assert abs(errors[-1]) < 0.05
