@@ -237,8 +237,9 @@ class RangeLawLearner:
         min_samples, min_log_spread: a full fit (scale and exponent) once some mark has this
             many sightings across this spread of ln r.
         min_scale_samples, min_scale_spread: a scale-only fit, the same way.
-        max_scale_sigma: the same as ``max_sigma`` for a scale-only fit (its σ includes the held exponent's
-            σ times the distance in ln r from ``r_ref``: far sightings of large marks stay out).
+        max_scale_sigma: the same as ``max_sigma`` for a scale-only fit (its σ includes the
+            held exponent's σ times the distance in ln r from ``r_ref``: far sightings of large
+            marks stay out).
         max_turn_rad: no sightings from frames whose pose turned more than this since the
             previous frame's.
         max_bearing_rad: no sightings of marks farther off the camera's axis (0.2 rad: where
