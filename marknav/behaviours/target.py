@@ -210,8 +210,8 @@ def associate(
     (an approach from far off its axis, a turn) and a mark of its colour farther down the
     course is no sighting of it (random mission 190: a mark 0.9 m away, 33° right, left the
     view and the approach took one 4.9 m ahead, passing the near one on the wrong side).
-    Locked (bypass started):
-    the mark of that colour nearest to the target's world estimate, if within the gate.
+    Locked (bypass started): the mark of that colour nearest to the target's world estimate,
+    if within the gate.
     Remembered (chosen from the memory, out of view): the same by position, within
     :data:`REMEMBERED_GATE_FACTOR` gates, passed marks excluded; with the robot's ``pose``,
     only once the remembered position is within :data:`REMEMBERED_CENTRE_DEG` of the heading:
