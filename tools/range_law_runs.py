@@ -48,7 +48,8 @@ def run(mission_path: str, seed: int, overrides: list[str]) -> dict[str, object]
         learnt = PowerLaw(a=used["a"], b=used["b"])
         errors.append([round(learnt.distance_mm(true.radius_px(d)) / d - 1.0, 4)
                        for d in DISTANCES_MM])
-    return {"seed": seed, "success": result.success, "reason": result.failure_reason,
+    return {"seed": seed, "success": result.success,
+            "reason": None if result.success else result.failure_reason,
             "collisions": result.collisions, "errors_at_waypoints": errors,
             "final": {k: law.get(k) for k in ("a", "b", "steps", "rejected")}}
 
