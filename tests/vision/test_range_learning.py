@@ -159,7 +159,7 @@ def test_small_and_off_axis_marks_are_not_added() -> None:
 
 def test_a_short_approach_learns_the_scale_only() -> None:
     # Small marks reach the radius floor only near the bypass distance: an approach from
-    # 1.4 m to 1.15 m (ln r spreads 0.2, under min_log_spread) still learns the scale, and
+    # 1.45 m to 1.2 m (ln r spreads 0.19, under min_log_spread) still learns the scale, and
     # holds the exponent it cannot pin.
     learner = RangeLawLearner(prior=PowerLaw(0.75 * 59752.0, -1.00242))
     errors = _approach(learner, start=1200.0, stop=1450.0, step=10.0)
