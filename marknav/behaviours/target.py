@@ -101,6 +101,13 @@ def _near(a: tuple[float, float], b: tuple[float, float], gate: float) -> bool:
     return math.hypot(a[0] - b[0], a[1] - b[1]) <= gate
 
 
+def _clearly_nearer(memory: keys.KnownMark, seen: keys.SeenMark, pose: Pose) -> bool:
+    """Whether a remembered mark is nearer the robot than one in view by at least
+    :data:`MEMORY_PREFERENCE_MM` (then the memory is preferred)."""
+    return not math.hypot(memory.world_x - pose.x, memory.world_y - pose.y) \
+        > seen.range_mm - MEMORY_PREFERENCE_MM
+
+
 def _near_passed(colour: str, xy: tuple[float, float], range_mm: float,
                  passed: Iterable[keys.PassedWaypoint]) -> bool:
     gate = gate_mm(range_mm)
@@ -226,8 +233,7 @@ def associate(
             return seen
         own = remembered_target(known, target.colour, done, (pose.x, pose.y), marks)
         if own is not None and _near(own.world, target.world, gate_mm(own.range_mm)) and \
-                math.hypot(own.world_x - pose.x, own.world_y - pose.y) \
-                <= seen.range_mm - MEMORY_PREFERENCE_MM:
+                _clearly_nearer(own, seen, pose):
             return None  # the target's mark is out of view, not the farther one in view
         return seen
     tx, ty = target.world
@@ -264,9 +270,7 @@ def choose_target(
     memory = None
     if known and pose is not None:
         memory = remembered_target(known, base.colour, passed, (pose.x, pose.y), marks)
-        if memory is not None and seen is not None and \
-                math.hypot(memory.world_x - pose.x, memory.world_y - pose.y) \
-                > seen.range_mm - MEMORY_PREFERENCE_MM:
+        if memory is not None and seen is not None and not _clearly_nearer(memory, seen, pose):
             memory = None  # the one in view is as near: take it
     if memory is not None:
         return replace(base, world_x=memory.world_x, world_y=memory.world_y,

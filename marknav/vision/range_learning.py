@@ -374,19 +374,23 @@ class RangeLawLearner:
         return (x + math.cos(th) * d - math.sin(th) * left_mm,
                 y + math.sin(th) * d + math.cos(th) * left_mm)
 
-    def _ready(self, samples: int, spread: float) -> bool:
+    def _ready(self) -> tuple[bool, bool]:
+        """(a full fit is due, a scale-only fit is due): some mark's sightings are many and
+        spread enough for each."""
         by_mark: dict[int, list[float]] = {}
         for s in self._sightings:
             by_mark.setdefault(s.mark, []).append(s.radius_px)
-        return any(len(r) >= samples and math.log(max(r)) - math.log(min(r)) >= spread
-                   for r in by_mark.values())
+        spreads = [(len(r), math.log(max(r)) - math.log(min(r))) for r in by_mark.values()]
+        return (any(n >= self.min_samples and d >= self.min_log_spread for n, d in spreads),
+                any(n >= self.min_scale_samples and d >= self.min_scale_spread
+                    for n, d in spreads))
 
     def update(self) -> RangeLawStep | None:
         """Refit when due; an accepted fit replaces the law and is returned."""
         if self._new < self.refit_every:
             return None
-        full = self._ready(self.min_samples, self.min_log_spread)
-        if not full and not self._ready(self.min_scale_samples, self.min_scale_spread):
+        full, scale_only = self._ready()
+        if not full and not scale_only:
             return None
         self._new = 0
         theta0, info0 = self._theta0, self._info0
