@@ -27,8 +27,8 @@ import py_trees
 from py_trees.common import Access, Status
 
 from marknav.behaviours import keys
-from marknav.clock import Clock
-from marknav.drivers.robot import Robot
+from marknav.core.clock import Clock
+from marknav.robot.robot import Robot
 
 _Blackboard = py_trees.blackboard.Blackboard
 
@@ -140,7 +140,8 @@ class MarknavBehaviour(py_trees.behaviour.Behaviour):
         clock = kwargs.get("clock")
         if clock is not None:
             if not isinstance(clock, Clock):
-                raise TypeError(f"{self._owner}: setup(clock=...) needs a marknav.clock.Clock, "
+                raise TypeError(f"{self._owner}: setup(clock=...) needs a "
+                                f"marknav.core.clock.Clock, "
                                 f"got {clock!r}")
             self._clock = clock
         mission = kwargs.get("mission")

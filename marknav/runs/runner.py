@@ -23,12 +23,12 @@ from typing import Any, Protocol
 import py_trees
 from py_trees.common import Status
 
-from marknav import signals
 from marknav.behaviours.composites import tick_now
-from marknav.clock import Clock
-from marknav.drivers.robot import ESTOPPED, FAULT, Robot
+from marknav.core import signals
+from marknav.core.clock import Clock
+from marknav.core.signals import Interrupted, interrupting
+from marknav.robot.robot import ESTOPPED, FAULT, Robot
 from marknav.runs.report import ABORTED, FAILED, SUCCESS, EventLog, RunReport
-from marknav.signals import Interrupted, interrupting
 from marknav.vision.sources import FrameSource
 
 log = logging.getLogger(__name__)
@@ -142,7 +142,7 @@ class MissionTree(py_trees.trees.BehaviourTree):
 
 
 #: SIGINT/SIGTERM raise :class:`Interrupted` inside the loop (the process-wide policy of
-#: :mod:`marknav.signals`, set up for the run if the CLI has not set it up for the process).
+#: :mod:`marknav.core.signals`, set up for the run if the CLI has not set it up for the process).
 _signals_interrupt = interrupting
 
 

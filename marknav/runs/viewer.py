@@ -25,7 +25,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from marknav.errors import InputError
+from marknav.core.errors import InputError
 from marknav.runs.display import status_text
 from marknav.runs.treeview import TreeState
 

@@ -202,7 +202,7 @@ def test_mission_tree_ticks_with_or_without_a_visitor_alike(blackboard: None) ->
 
 def _run_route(monkeypatch: pytest.MonkeyPatch, lean: bool, ticks: int) -> tuple[Any, ...]:
     from marknav.behaviours import keys, route
-    from marknav.clock import ManualClock
+    from marknav.core.clock import ManualClock
     from marknav.sim.world import generate_world
     from marknav.testing import FakePerception, FakeRobot, WorldMark, make_mission
 

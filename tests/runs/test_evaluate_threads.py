@@ -12,6 +12,7 @@ import pytest
 import yaml
 
 from marknav.runs import run as runmod
+from marknav.runs.evaluate import run_seed
 from marknav.runs.evaluate_backends import one_opencv_thread, run_jobs
 from marknav.testing import BASE_MISSION
 
@@ -39,7 +40,8 @@ def test_an_evaluation_job_runs_on_one_opencv_thread_then_restores_it(
     before = cv2.getNumThreads()
     cv2.setNumThreads(3)
     try:
-        results, workers = run_jobs([(str(mission), 1), (str(mission), 2)], max_time_s=0.2)
+        results, workers = run_jobs(run_seed, [(str(mission), 1), (str(mission), 2)],
+                                    max_time_s=0.2)
         assert workers == 1 and [r.seed for r in results] == [1, 2]
         assert all(r.outcome == "failed" for r in results)  # the 0.2 s time limit
         assert seen == [1, 1]
