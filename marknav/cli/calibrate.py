@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import argparse
 import json
+from typing import TYPE_CHECKING
 
 from marknav.core.errors import InputError
-from marknav.vision.calibrate import PowerFit, fit_power_law, fit_table, plot_fit
+
+if TYPE_CHECKING:
+    from marknav.vision.calibrate import PowerFit
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -45,6 +48,8 @@ def print_fit(fit: PowerFit, *, as_json: bool, source: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from marknav.vision.calibrate import fit_power_law, fit_table, plot_fit
+
     if args.sim == (args.table is not None):
         raise InputError("give either a TABLE.csv or --sim")
     if args.plot:

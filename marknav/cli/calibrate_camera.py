@@ -5,8 +5,6 @@ from __future__ import annotations
 import argparse
 import json
 
-from marknav.vision.chessboard import calibrate_images, parse_board, plot_calibration
-
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
@@ -32,6 +30,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from marknav.vision.chessboard import calibrate_images, parse_board, plot_calibration
+
     board = parse_board(args.board)
     cal = calibrate_images(list(args.images), board, args.square_mm)
     if args.plot:

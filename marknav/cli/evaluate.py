@@ -10,6 +10,7 @@ import threading
 import time
 from typing import TextIO
 
+from marknav.cli.validate import set_item
 from marknav.core.errors import InputError, MissionFailed
 
 BAR_WIDTH = 20
@@ -58,7 +59,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                         "(default), or 'coarse' 3 x 4 points")
     p.add_argument("--plot", metavar="FILE.png", help="--accuracy: draw error against distance")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="overrides",
-                   help="change a mission setting for every run, e.g. --set "
+                   type=set_item, help="change a mission setting for every run, e.g. --set "
                         "navigation.clearance_mm=350 (dotted key, YAML value; repeatable)")
     p.set_defaults(func=run)
 

@@ -11,7 +11,9 @@ Exit codes (every command): 0 success; 1 the mission or evaluation failed or was
 from __future__ import annotations
 
 import argparse
+import difflib
 import logging
+import os
 import sys
 from collections.abc import Sequence
 from types import ModuleType
@@ -46,21 +48,92 @@ COMMANDS: tuple[ModuleType, ...] = (
 
 
 
+def _global_options(parser: argparse.ArgumentParser, *, after_command: bool) -> None:
+    """``--version`` and ``-v`` on the top-level parser and on every sub-command, so they work
+    before or after the command (``marknav run M -v``). After the command, ``-v`` counts into
+    ``verbose_after`` (added to the top-level count)."""
+    parser.add_argument("--version", action="version", version=f"marknav {__version__}")
+    parser.add_argument(
+        "-v", "--verbose", action="count",
+        dest="verbose_after" if after_command else "verbose",
+        default=argparse.SUPPRESS if after_command else 0,
+        help="more log output: -v marknav's own messages (INFO), -vv debug messages and "
+             "the libraries' (py_trees, transitions) too"
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="marknav",
         description="Drive an iRobot Create past coloured circular marks with one camera.",
     )
-    parser.add_argument("--version", action="version", version=f"marknav {__version__}")
-    parser.add_argument(
-        "-v", "--verbose", action="count", default=0,
-        help="more log output: -v marknav's own messages (INFO), -vv debug messages and "
-             "the libraries' (py_trees, transitions) too"
-    )
+    _global_options(parser, after_command=False)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for module in COMMANDS:
         module.register(sub)
+    for command in sub.choices.values():
+        _global_options(command, after_command=True)
     return parser
+
+
+def subcommands(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    """The sub-command parsers by name (aliases included)."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            return dict(action.choices)
+    return {}
+
+
+def option_strings(parser: argparse.ArgumentParser) -> list[str]:
+    return [s for action in parser._actions for s in action.option_strings]
+
+
+def did_you_mean(word: str, choices: Sequence[str]) -> str:
+    """`` (did you mean X?)`` when ``word`` is close to one of ``choices``, else ``""``."""
+    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
+    return f" (did you mean {close[0]}?)" if close else ""
+
+
+def check_command(parser: argparse.ArgumentParser, argv: Sequence[str]) -> None:
+    """An unknown command is named with the closest known ones (argparse lists all 16).
+
+    The top-level options take no values, so the first word not starting with ``-`` is the
+    command."""
+    commands = subcommands(parser)
+    for word in argv:
+        if word == "--":
+            return
+        if word.startswith("-"):
+            continue
+        if word not in commands:
+            parser.error(f"unknown command {word!r}{did_you_mean(word, list(commands))}; "
+                         f"commands: {', '.join(commands)} ('marknav --help' says what each "
+                         "does)")
+        return
+
+
+def unrecognized(extras: Sequence[str], parser: argparse.ArgumentParser) -> str:
+    """The error for arguments ``parser`` did not take, with the closest option for each
+    option-like one."""
+    known = option_strings(parser)
+    parts = []
+    for word in extras:
+        if word.startswith("-") and len(word) > 1:
+            name = word.split("=", 1)[0]
+            parts.append(f"unknown option {word!r}{did_you_mean(name, known)}")
+        else:
+            parts.append(f"unexpected argument {word!r}")
+    return "; ".join(parts)
+
+
+def parse(parser: argparse.ArgumentParser, argv: Sequence[str]) -> argparse.Namespace:
+    """Parse ``argv``; a usage error exits 2 with the usage of the command it concerns."""
+    check_command(parser, argv)
+    args, extras = parser.parse_known_args(argv)
+    if extras:
+        target = subcommands(parser).get(getattr(args, "command", None) or "", parser)
+        target.error(unrecognized(extras, target))
+    return args
 
 
 class _StderrHandler(logging.StreamHandler):
@@ -72,9 +145,35 @@ class _StderrHandler(logging.StreamHandler):
         super().emit(record)
 
 
+#: OpenCV's own log level as the user set it (``OPENCV_LOG_LEVEL``), if they did.
+_USER_OPENCV_LOG_LEVEL = os.environ.get("OPENCV_LOG_LEVEL")
+
+
+def quiet_libraries(verbosity: int) -> None:
+    """Library messages never reach the screen raw.
+
+    - OpenCV writes ``[ WARN:0@1.959] global cap_v4l.cpp…`` lines to stderr itself (a camera
+      that does not open, before marknav's own message says so): its level is ERROR, WARNING
+      with -vv (unless the user set ``OPENCV_LOG_LEVEL``). It is read when OpenCV logs first,
+      so it is set here, before any command imports ``cv2``; an imported ``cv2`` is set too.
+    - Python warnings (numba's, NumPy's, ...) go to logging (logger ``py.warnings``), shown
+      as log lines with -v and hidden otherwise.
+    """
+    if _USER_OPENCV_LOG_LEVEL is None:
+        os.environ["OPENCV_LOG_LEVEL"] = "WARNING" if verbosity >= 2 else "ERROR"
+        cv2 = sys.modules.get("cv2")
+        if cv2 is not None and hasattr(cv2, "setLogLevel"):
+            cv2.setLogLevel(3 if verbosity >= 2 else 2)  # 3 warning, 2 error
+    logging.captureWarnings(True)
+    logging.getLogger("py.warnings").setLevel(logging.WARNING if verbosity >= 1
+                                              else logging.ERROR)
+
+
 def configure_logging(verbosity: int) -> None:
     """Log to stderr: marknav's loggers at WARNING, INFO (-v) or DEBUG (-vv); other libraries'
-    (transitions logs every state callback at INFO) stay at WARNING unless -vv."""
+    (transitions logs every state callback at INFO) stay at WARNING unless -vv; see
+    :func:`quiet_libraries` for OpenCV's own log and Python warnings."""
+    quiet_libraries(verbosity)
     handler = _StderrHandler(sys.stderr)
     handler.setFormatter(logging.Formatter("%(levelname)s %(name)s: %(message)s"))
     handler._marknav = True  # type: ignore[attr-defined]
@@ -110,8 +209,8 @@ def _main(argv: Sequence[str] | None) -> int:
     from marknav.core.outputs import printable
 
     parser = build_parser()
-    args = parser.parse_args(argv)
-    configure_logging(args.verbose)
+    args = parse(parser, list(sys.argv[1:] if argv is None else argv))
+    configure_logging(args.verbose + getattr(args, "verbose_after", 0))
     if args.command is None:
         parser.print_help()
         return EXIT_BAD_INPUT

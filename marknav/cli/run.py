@@ -6,8 +6,11 @@ import argparse
 import sys
 from pathlib import Path
 
-from marknav.cli.validate import SET_HELP
-from marknav.core.errors import InputError, MissionFailed
+from marknav.cli.validate import SET_HELP, set_item
+from marknav.core.errors import EXIT_INTERRUPTED, InputError, MissionFailed
+
+#: Shown while the compiled loops are built (a cold cache: the first run after installing).
+PREPARING = "preparing the detector (first run only)…"
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -61,7 +64,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                    help="give up after this much mission time (default 60 s + 40 s per "
                         "waypoint)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", dest="overrides",
-                   help=SET_HELP + "; recorded in the report")
+                   type=set_item, help=SET_HELP + "; recorded in the report")
     p.set_defaults(func=run)
 
 
@@ -82,8 +85,9 @@ def run(args: argparse.Namespace) -> int:
     from marknav.core.outputs import printable
     from marknav.missions.overrides import parse_overrides
     from marknav.runs.checks import checked_mission
+    from marknav.runs.progress import slow_status
     from marknav.runs.report import reached
-    from marknav.runs.run import RunRequest, default_run_dir, execute, summary
+    from marknav.runs.run import RunRequest, default_run_dir, execute, prepare, summary
 
     if args.max_time is not None and not args.max_time > 0:
         raise InputError(f"must be positive, got {args.max_time}", field="--max-time")
@@ -128,13 +132,17 @@ def run(args: argparse.Namespace) -> int:
         for error in req.write_errors:
             print(f"marknav run: error: {printable(error)}", file=sys.stderr)
 
+    with slow_status(PREPARING, sys.stderr):
+        prepare(simulator=args.robot == "sim")
     try:
         result = execute(req)
     except KeyboardInterrupt:
         write_errors()
+        # the whole message: returning (not re-raising) keeps the CLI's generic
+        # "interrupted" line from repeating it
         print(f"marknav run: interrupted; wheels stopped; {written() or 'nothing written'}",
               file=sys.stderr)
-        raise
+        return EXIT_INTERRUPTED
     except InputError:
         write_errors()
         if req.written:

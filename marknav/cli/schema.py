@@ -16,7 +16,6 @@ import argparse
 import json
 
 from marknav.core.errors import InputError
-from marknav.missions.schema import mission_json_schema
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -36,6 +35,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from marknav.missions.schema import mission_json_schema
+
     if args.world:
         if args.plugin:
             raise InputError("does not apply with --world", field="--plugin")

@@ -19,7 +19,6 @@ import sys
 from types import FrameType
 
 from marknav.core.errors import InputError
-from marknav.remote.mjpeg_server import CameraStreamer, MjpegServer, is_live_spec, is_loopback_host
 
 log = logging.getLogger(__name__)
 
@@ -70,6 +69,12 @@ def _check(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from marknav.remote.mjpeg_server import (
+        CameraStreamer,
+        MjpegServer,
+        is_live_spec,
+        is_loopback_host,
+    )
     from marknav.vision.sources import open_source
 
     _check(args)

@@ -13,10 +13,6 @@ import sys
 from types import FrameType
 
 from marknav.core.errors import InputError
-from marknav.remote.rfc2217_bridge import Rfc2217Bridge
-from marknav.robot import oi
-from marknav.robot.packets import Model
-from marknav.robot.transport import LINK_ERRORS, SerialPort, open_port
 
 _READ_TIMEOUT_S = 0.01
 
@@ -62,6 +58,11 @@ def _is_loopback(host: str) -> bool:
 
 
 def run(args: argparse.Namespace) -> int:
+    from marknav.remote.rfc2217_bridge import Rfc2217Bridge
+    from marknav.robot import oi
+    from marknav.robot.packets import Model
+    from marknav.robot.transport import LINK_ERRORS, SerialPort, open_port
+
     model = Model.parse(args.model)
     if not 0 <= args.idle_stop <= 60:  # also refuses nan
         raise InputError(f"must be in [0, 60], got {args.idle_stop:g}", field="--idle-stop")

@@ -14,10 +14,7 @@ import signal
 import sys
 from types import FrameType
 
-from marknav.core.clock import MonotonicClock
 from marknav.core.errors import InputError
-from marknav.sim.create import SimulatedCreate
-from marknav.sim.pty import PtyServer
 
 log = logging.getLogger(__name__)
 
@@ -45,6 +42,10 @@ def _raise_interrupt(signum: int, frame: FrameType | None) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from marknav.core.clock import MonotonicClock
+    from marknav.sim.create import SimulatedCreate
+    from marknav.sim.pty import PtyServer
+
     for name in ("left_scale", "right_scale"):
         value = getattr(args, name)
         if not 0.0 < value <= 2.0:

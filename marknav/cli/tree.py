@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from marknav.cli.validate import SET_HELP
+from marknav.cli.validate import SET_HELP, set_item
 from marknav.core.errors import InputError
 
 
@@ -22,7 +22,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--unicode", action="store_true",
                    help="draw with box-drawing lines and a symbol per node kind")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", dest="overrides",
-                   help=SET_HELP)
+                   type=set_item, help=SET_HELP)
     p.set_defaults(func=run)
 
 

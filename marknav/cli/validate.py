@@ -14,8 +14,17 @@ import argparse
 import sys
 
 from marknav.core.errors import EXIT_BAD_INPUT, EXIT_OK
-from marknav.missions.overrides import parse_overrides
-from marknav.runs.checks import check_mission
+
+
+def set_item(text: str) -> str:
+    """The type of ``--set``: ``KEY=VALUE`` in one word, so ``--set a.b 350`` is a usage error
+    of the command it was given to (``parse_overrides`` checks the key and the value)."""
+    if "=" not in text:
+        raise argparse.ArgumentTypeError(
+            f"expected KEY=VALUE in one word, got {text!r}: write --set {text}=VALUE "
+            "(no spaces around '=')")
+    return text
+
 
 SET_HELP = ("change a mission setting, e.g. --set navigation.clearance_mm=350 (dotted key, YAML "
             "value; repeatable; checked like the file)")
@@ -31,7 +40,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     )
     p.add_argument("missions", nargs="+", metavar="MISSION", help="mission YAML files")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", dest="overrides",
-                   help=SET_HELP)
+                   type=set_item, help=SET_HELP)
     p.add_argument("--world", metavar="WORLD",
                    help="check against this simulator world file instead of each mission's "
                         "sim.world (as 'run --world WORLD' would run)")
@@ -39,6 +48,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from marknav.missions.overrides import parse_overrides
+    from marknav.runs.checks import check_mission
+
     overrides = parse_overrides(args.overrides)
     invalid = 0
     for path in args.missions:

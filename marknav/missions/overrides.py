@@ -112,13 +112,37 @@ def _under(field: str | None, prefix: str) -> bool:
     return field == prefix or field.startswith(prefix + ".") or field.startswith(prefix + "[")
 
 
+_UNKNOWN_KEY = re.compile(r"^unknown key '[^']*'(; )?")
+
+
+def _setting_message(message: str) -> str:
+    """A schema message about a key, said of a ``--set`` setting: an unknown key is "no such
+    setting" (its did-you-mean or the allowed keys kept)."""
+    m = _UNKNOWN_KEY.match(message)
+    if m is None:
+        return message
+    rest = message[m.end():]
+    return f"no such setting; {rest}" if m.group(1) else f"no such setting{rest}"
+
+
 def relabel(errors: Iterable[InputError], overrides: Sequence[Override]) -> list[InputError]:
     """Errors in a field a ``--set`` gave (or below it) located at that setting, not the file."""
     out: list[InputError] = []
     for e in errors:
         for o in reversed(overrides):  # the last setting of a key is the one in effect
             if _under(e.field, o.field):
-                e = InputError(e.message, file=f"--set {o.text}", field=e.field)
+                if e.field == o.field and _UNKNOWN_KEY.match(e.message):
+                    # the setting names the key: say it once
+                    e = InputError(_setting_message(e.message), file=f"--set {o.text}")
+                else:
+                    e = InputError(e.message, file=f"--set {o.text}", field=e.field)
+                break
+            if e.field is not None and _under(o.field, e.field) and _UNKNOWN_KEY.match(
+                    e.message):
+                # the setting made up a key above itself (--set foo.bar=1): its doing, not the
+                # file's
+                e = InputError(_setting_message(e.message), file=f"--set {o.text}",
+                               field=e.field)
                 break
         out.append(e)
     return out

@@ -168,6 +168,20 @@ def recorded_plans() -> list[Any]:
     return list(bb.get(keys.PLANS)) if bb.exists(keys.PLANS) else []
 
 
+def prepare(*, simulator: bool) -> None:
+    """Load the compiled loops a run needs: the detector's and, for the simulator, the
+    renderer's (≈ 0.1–0.3 s once per process from the cache; building them on a cold cache
+    takes 10–40 s on a busy 2-core machine). Cheap after the first call in a process. The
+    command line calls it under a status line before :func:`execute`, which calls it too."""
+    from marknav.vision.detect.kernels import warm_up
+
+    warm_up()
+    if simulator:
+        from marknav.sim.projection import warm_up as warm_projection
+
+        warm_projection()
+
+
 def execute(req: RunRequest) -> RunResult:
     """Run the mission of ``req`` to the end. Raises InputError for bad input,
     KeyboardInterrupt (after stopping the wheels and writing the report) on Ctrl-C/SIGTERM.
@@ -199,12 +213,9 @@ def execute(req: RunRequest) -> RunResult:
     try:
         root = build_mission_tree(mission)
         keys.reset()
-        # The detector's compiled loops are loaded now (≈ 0.1–0.3 s once per process; the
-        # first compile ≈ 7 s), before the robot and the camera are opened and the clock
-        # starts: the first control cycle must not wait for them.
-        from marknav.vision.detect.kernels import warm_up
-
-        warm_up()
+        # before the robot and the camera are opened and the clock starts: the first control
+        # cycle must not wait for the compiled loops
+        prepare(simulator=req.robot == "sim")
         env = make_environment(mission, req, seed)
         result = RunResult(report=report, environment=env)
         recorder = _recorder(req, root, env, events)

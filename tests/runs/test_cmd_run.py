@@ -135,6 +135,9 @@ def test_interrupt_stops_the_wheels_and_writes_the_report(tmp_path: Path, sig: i
     assert proc.returncode == 130, err
     assert "Traceback" not in err
     assert "wheels stopped" in err
+    # one line says it (the command's, with what was written), not a second generic one
+    assert [line for line in err.splitlines() if "interrupted" in line] == [
+        next(line for line in err.splitlines() if line.startswith("marknav run: interrupted"))]
     report = json.loads(report_path.read_text())
     assert report["outcome"] == "aborted"
     assert report["reason"].startswith("interrupted")
