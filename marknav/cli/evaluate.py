@@ -32,7 +32,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         ),
     )
     p.add_argument("mission", metavar="MISSION", nargs="?",
-                   help="mission YAML file (optional with --accuracy)")
+                   help="mission YAML file or a built-in example's name (optional with "
+                        "--accuracy)")
     p.add_argument("--missions", choices=("random",), metavar="random",
                    help="instead of MISSION: draw a mission and its world per run from the seed "
                         "(routes of 3-12 marks, 2-5 colours, mixed sides, clearances, bypass "
@@ -156,8 +157,12 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("give a MISSION to evaluate (or --missions random, or --accuracy)")
     if args.runs is None:
         raise InputError("give the number of runs: --runs N", field="--runs")
+    from marknav.missions.examples import mission_path
     from marknav.missions.overrides import parse_overrides
-    from marknav.runs.evaluate import evaluate, format_evaluation
+    from marknav.runs.evaluate import RANDOM, evaluate, format_evaluation
+
+    if args.mission != RANDOM:
+        args.mission = mission_path(args.mission)
 
     parse_overrides(args.overrides)  # a malformed --set: exit 2 before anything runs
     if args.dask is not None and args.jobs != 1:
@@ -186,6 +191,11 @@ def _accuracy(args: argparse.Namespace) -> int:
     if args.overrides:
         raise InputError("does not apply with --accuracy", field="--set")
     from marknav.runs.evaluate import format_accuracy, plot_accuracy, position_accuracy
+
+    if args.mission is not None:
+        from marknav.missions.examples import mission_path
+
+        args.mission = mission_path(args.mission)
 
     result = position_accuracy(args.mission, frames=args.frames, grid=args.grid,
                                seed=args.seed)

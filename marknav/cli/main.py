@@ -25,6 +25,7 @@ from marknav.cli import (
     calibrate_camera,
     detect,
     evaluate,
+    examples,
     random_mission,
     replay,
     run,
@@ -42,7 +43,7 @@ log = logging.getLogger(__name__)
 
 #: The modules that each register one sub-command, in the order ``--help`` shows them.
 COMMANDS: tuple[ModuleType, ...] = (
-    run, validate, tree, evaluate, replay, tune, random_mission, bench, detect, calibrate,
+    run, validate, tree, evaluate, replay, examples, tune, random_mission, bench, detect, calibrate,
     calibrate_camera, sim_robot, schema, serve_camera, serve_robot,
 )
 

@@ -28,7 +28,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
             "marknav turns Rerun's anonymous usage analytics off (RERUN_ANALYTICS=0)."
         ),
     )
-    p.add_argument("mission", metavar="MISSION", help="mission YAML file")
+    p.add_argument("mission", metavar="MISSION",
+                   help="mission YAML file, or the name of a built-in example (slalom)")
     p.add_argument("--world", metavar="WORLD|generate|random",
                    help="simulator world file (default: the mission's sim.world, else one "
                         "generated from the route and --seed); 'generate' forces a generated "
@@ -83,6 +84,7 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from marknav.core.outputs import printable
+    from marknav.missions.examples import mission_path
     from marknav.missions.overrides import parse_overrides
     from marknav.runs.checks import checked_mission
     from marknav.runs.progress import slow_status
@@ -103,6 +105,7 @@ def run(args: argparse.Namespace) -> int:
             require_display("--viewer")
     check_outputs(args)
     overrides = parse_overrides(args.overrides)
+    args.mission = mission_path(args.mission)
     world = None if args.world in (None, "generate", "random") else args.world
     # Everything 'marknav validate' checks, before anything starts; then only the hardware.
     mission = checked_mission(args.mission, overrides, world=world)

@@ -16,7 +16,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         description="Build MISSION's tree (its tree: section, or the default route tree) and "
                     "print it; --dot also writes it in Graphviz dot format.",
     )
-    p.add_argument("mission", metavar="MISSION", help="mission YAML file")
+    p.add_argument("mission", metavar="MISSION",
+                   help="mission YAML file, or the name of a built-in example (slalom)")
     p.add_argument("--dot", metavar="FILE", type=Path,
                    help="also write the tree as Graphviz dot (render with: dot -Tpng FILE)")
     p.add_argument("--unicode", action="store_true",
@@ -30,6 +31,7 @@ def run(args: argparse.Namespace) -> int:
     import py_trees
 
     from marknav.behaviours.tree import build_mission_tree
+    from marknav.missions.examples import mission_path
     from marknav.missions.overrides import parse_overrides
     from marknav.missions.tree_display import UNICODE_LEGEND, dot_tree, unicode_tree
     from marknav.runs.checks import checked_mission
@@ -40,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
         check_output_file(args.dot, option="--dot")  # before the work, not after
     # The same checks as 'marknav validate' (and 'run'): a tree is only drawn for a mission
     # that would run.
-    mission = checked_mission(args.mission, parse_overrides(args.overrides))
+    mission = checked_mission(mission_path(args.mission), parse_overrides(args.overrides))
     root = build_mission_tree(mission)
     print(f"# {mission.name}: {mission.route_summary()}")
     if args.unicode:

@@ -28,7 +28,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
             "pip install 'marknav[cluster]'."
         ),
     )
-    p.add_argument("mission", metavar="MISSION", help="mission YAML file")
+    p.add_argument("mission", metavar="MISSION",
+                   help="mission YAML file, or the name of a built-in example (slalom)")
     p.add_argument("--param", action="append", default=[], metavar="KEY=LOW:HIGH[:STEP]",
                    help="a dotted mission key and its range, e.g. "
                         "navigation.clearance_mm=250:450 (repeat for more)")
@@ -52,9 +53,11 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from marknav.missions.examples import mission_path
     from marknav.runs.tune import TrialSummary, best_yaml, parse_param, plot_trials, tune
 
     params = [parse_param(text) for text in args.param]
+    args.mission = mission_path(args.mission)
     if args.dask is not None and args.jobs != 1:
         raise InputError("--jobs is for local processes; with --dask the cluster's workers "
                          "run the trials", field="--jobs")

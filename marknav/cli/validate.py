@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from marknav.core.errors import EXIT_BAD_INPUT, EXIT_OK
+from marknav.core.errors import EXIT_BAD_INPUT, EXIT_OK, InputError
 
 
 def set_item(text: str) -> str:
@@ -38,7 +38,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "is reported as FILE:LINE:COLUMN: field: message. A mission's sim.world file is checked "
         "too. Exit code 0 when all files are valid, 2 otherwise.",
     )
-    p.add_argument("missions", nargs="+", metavar="MISSION", help="mission YAML files")
+    p.add_argument("missions", nargs="+", metavar="MISSION",
+                   help="mission YAML files (or names of built-in examples)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", dest="overrides",
                    type=set_item, help=SET_HELP)
     p.add_argument("--world", metavar="WORLD",
@@ -48,13 +49,17 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from marknav.missions.examples import mission_path
     from marknav.missions.overrides import parse_overrides
     from marknav.runs.checks import check_mission
 
     overrides = parse_overrides(args.overrides)
     invalid = 0
     for path in args.missions:
-        mission, errors = check_mission(path, overrides, world=args.world)
+        try:
+            mission, errors = check_mission(mission_path(path), overrides, world=args.world)
+        except InputError as exc:
+            mission, errors = None, [exc]
         if errors:
             invalid += 1
             for error in errors:

@@ -31,13 +31,11 @@ import importlib
 import logging
 import time
 from collections.abc import Callable, Iterator, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import py_trees
 
-import marknav
 from marknav.missions.schema import Mission
 
 __all__ = ["bench_loop", "bench_safety", "bench_tree", "default_slalom"]
@@ -154,15 +152,12 @@ def bench_tree(*, waypoints: int = 50, ticks: int = 2000, slalom_ticks: int = 10
 
 
 def default_slalom() -> Mission:
-    """The repository's ``missions/slalom.yaml`` (with its own world) when marknav runs from a
-    checkout, else the slalom route on a generated world with the same camera."""
+    """The built-in example ``slalom`` (the checkout's ``missions/slalom.yaml``), with its own
+    world."""
+    from marknav.missions.examples import EXAMPLES_DIR
     from marknav.missions.schema import load_mission
-    from marknav.testing import make_mission
 
-    path = Path(marknav.__file__).resolve().parents[1] / "missions" / "slalom.yaml"
-    if path.is_file():
-        return load_mission(path)
-    return make_mission(name="slalom", route=list(SLALOM_ROUTE))
+    return load_mission(EXAMPLES_DIR / "slalom.yaml")
 
 
 def bench_loop(*, mission: Mission | None = None, max_time_s: float = 60.0,

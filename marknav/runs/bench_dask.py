@@ -27,7 +27,6 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import marknav
 from marknav.core.errors import InputError
 
 __all__ = ["bench_dask", "default_mission_path"]
@@ -36,12 +35,10 @@ log = logging.getLogger(__name__)
 
 
 def default_mission_path() -> Path:
-    """The source checkout's ``missions/slalom.yaml``."""
-    path = Path(marknav.__file__).resolve().parents[1] / "missions" / "slalom.yaml"
-    if not path.is_file():
-        raise InputError("the Dask benchmark runs missions/slalom.yaml: run it from a source "
-                         "checkout", field="bench dask")
-    return path
+    """The built-in example ``slalom`` (the checkout's ``missions/slalom.yaml``)."""
+    from marknav.missions.examples import EXAMPLES_DIR
+
+    return EXAMPLES_DIR / "slalom.yaml"
 
 
 def _warm_up() -> float:

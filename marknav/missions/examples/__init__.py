@@ -1,0 +1,79 @@
+"""The example missions and their simulator worlds, shipped inside the package.
+
+An installed marknav (a wheel, no checkout) runs its demo by name: ``marknav run slalom`` finds
+``slalom.yaml`` here when no file ``slalom`` exists, and ``marknav examples DIR`` copies the
+missions and their ``worlds/`` out to edit. A mission names its world relative to itself
+(``sim: {world: worlds/slalom-world.yaml}``), so the copies run wherever they are put.
+
+The repository's ``missions/`` folder holds the same files (the README's commands use it from a
+checkout); a test keeps the two identical.
+"""
+
+from __future__ import annotations
+
+import difflib
+import shutil
+from pathlib import Path
+
+from marknav.core.errors import InputError
+
+__all__ = ["EXAMPLES_DIR", "copy_examples", "example_files", "example_names", "mission_path"]
+
+#: The folder of the example missions (``worlds/`` below it).
+EXAMPLES_DIR = Path(__file__).resolve().parent
+
+
+def example_names() -> list[str]:
+    """The examples' names (their file names without ``.yaml``), sorted."""
+    return sorted(p.stem for p in EXAMPLES_DIR.glob("*.yaml"))
+
+
+def example_files() -> list[Path]:
+    """Every example file, relative to :data:`EXAMPLES_DIR`: the missions, then the worlds."""
+    return [p.relative_to(EXAMPLES_DIR) for p in
+            [*sorted(EXAMPLES_DIR.glob("*.yaml")), *sorted(EXAMPLES_DIR.glob("worlds/*.yaml"))]]
+
+
+def _is_bare_name(text: str) -> bool:
+    return bool(text) and "/" not in text and "\\" not in text and not text.endswith(
+        (".yaml", ".yml"))
+
+
+def mission_path(text: str) -> str:
+    """The mission file ``text`` names: itself when it is a file (or looks like a path), else
+    the built-in example of that name. A bare name that is neither raises :class:`InputError`
+    listing the examples."""
+    if Path(text).exists() or not _is_bare_name(text):
+        return text  # the loader reports a missing path with its own message
+    names = example_names()
+    if text in names:
+        return str(EXAMPLES_DIR / f"{text}.yaml")
+    close = difflib.get_close_matches(text, names, n=1)
+    hint = f"did you mean {close[0]}? " if close else ""
+    raise InputError(f"no such file, and no built-in example of that name; {hint}examples: "
+                     f"{', '.join(names)} ('marknav examples DIR' copies them out to edit)",
+                     file=text)
+
+
+def copy_examples(dest: Path) -> list[Path]:
+    """Copy the examples into ``dest`` (created if needed); the paths written. Nothing is
+    overwritten: if any of the files is already there, :class:`InputError` names them and
+    nothing is copied."""
+    files = example_files()
+    if dest.exists() and not dest.is_dir():
+        raise InputError("exists and is not a folder", file=str(dest))
+    there = [f for f in files if (dest / f).exists()]
+    if there:
+        listed = ", ".join(str(f) for f in there[:4]) + (" ..." if len(there) > 4 else "")
+        raise InputError(f"would overwrite {len(there)} file{'s' if len(there) != 1 else ''} "
+                         f"({listed}): choose another folder or move them first",
+                         file=str(dest))
+    written = []
+    try:
+        for f in files:
+            (dest / f).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(EXAMPLES_DIR / f, dest / f)
+            written.append(dest / f)
+    except OSError as exc:
+        raise InputError(f"cannot write: {exc.strerror or exc}", file=str(dest)) from None
+    return written
