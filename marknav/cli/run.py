@@ -9,8 +9,9 @@ from pathlib import Path
 from marknav.cli.validate import SET_HELP, set_item
 from marknav.core.errors import EXIT_INTERRUPTED, InputError, MissionFailed
 
-#: Shown while the compiled loops are built (a cold cache: the first run after installing).
-PREPARING = "preparing the detector (first run only)…"
+#: Shown when preparing takes over a second: building the compiled loops on a cold cache (the
+#: first run after installing: 10–40 s), or loading them on a very busy machine.
+PREPARING = "preparing the detector (the first run compiles it: up to a minute)…"
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

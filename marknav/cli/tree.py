@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from marknav.cli.validate import SET_HELP, set_item
@@ -14,27 +15,31 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "tree",
         help="print a mission's behaviour tree without running it",
         description="Build MISSION's tree (its tree: section, or the default route tree) and "
-                    "print it; --dot also writes it in Graphviz dot format.",
+                    "print it, every node, in the notation of the live view and 'marknav "
+                    "replay' (the legend line says what the symbols mean); --dot also writes "
+                    "it in Graphviz dot format with the same labels.",
     )
     p.add_argument("mission", metavar="MISSION",
                    help="mission YAML file, or the name of a built-in example (slalom)")
     p.add_argument("--dot", metavar="FILE", type=Path,
                    help="also write the tree as Graphviz dot (render with: dot -Tpng FILE)")
-    p.add_argument("--unicode", action="store_true",
-                   help="draw with box-drawing lines and a symbol per node kind")
+    p.add_argument("--tree", default="auto", choices=("auto", "ascii", "unicode"),
+                   help="symbols: unicode where the output can show them (default auto), or "
+                        "ascii")
+    p.add_argument("--unicode", action="store_const", const="unicode", dest="tree",
+                   help="same as --tree unicode")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", dest="overrides",
                    type=set_item, help=SET_HELP)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    import py_trees
-
     from marknav.behaviours.tree import build_mission_tree
     from marknav.missions.examples import mission_path
     from marknav.missions.overrides import parse_overrides
-    from marknav.missions.tree_display import UNICODE_LEGEND, dot_tree, unicode_tree
     from marknav.runs.checks import checked_mission
+    from marknav.runs.display import resolve_style
+    from marknav.runs.treeview import TreeState, dot_tree, legend
 
     if args.dot is not None:
         from marknav.core.outputs import check_output_file
@@ -44,12 +49,11 @@ def run(args: argparse.Namespace) -> int:
     # that would run.
     mission = checked_mission(mission_path(args.mission), parse_overrides(args.overrides))
     root = build_mission_tree(mission)
-    print(f"# {mission.name}: {mission.route_summary()}")
-    if args.unicode:
-        print(f"# {UNICODE_LEGEND}")
-        print(unicode_tree(root), end="")
-    else:
-        print(py_trees.display.ascii_tree(root), end="")
+    style = resolve_style(args.tree, sys.stdout)
+    route = mission.route_summary()
+    print(f"# {mission.name}: {route if style == 'unicode' else route.replace('→', '->')}")
+    print(f"# legend: {legend(style)}")
+    print(TreeState.of_tree(root).text(style=style, full=True))
     if args.dot is not None:
         try:
             args.dot.write_text(dot_tree(root), encoding="utf-8")

@@ -1,25 +1,39 @@
-"""A behaviour tree as plain data, and its compact drawing (live view, run log and replay).
+"""A behaviour tree as plain data, and its one drawing: ``marknav tree``, the live view, the run
+log, ``marknav replay`` and ``marknav tree --dot`` all use this notation and legend.
 
-:class:`TreeState` holds each node's name, kind, parent, status and feedback message. It is
-captured from a running py_trees tree (:meth:`TreeState.capture` returns what changed since the
-last capture, which the run log stores per tick) or rebuilt from a run log
-(:meth:`TreeState.apply`), so the live view and ``marknav replay`` draw the same picture.
+:class:`TreeState` holds each node's name, kind, memory, parent, status and feedback message.
+It is captured from a running py_trees tree (:meth:`TreeState.capture` returns what changed
+since the last capture, which the run log stores per tick) or rebuilt from a run log
+(:meth:`TreeState.apply`), so the live view and ``marknav replay`` draw the same picture;
+:meth:`TreeState.of_tree` of a tree that has not run is what ``marknav tree`` draws
+(``full=True``: every node, nothing folded).
 
-The drawing is compact: a composite that is not running is folded to one line (a finished
+One line per node: indentation, status, kind, name, ``(m)`` for a composite with memory (it
+resumes at its running child; without, it starts again from its first child every tick), and
+the node's message. Status and composite kind use different symbols (py_trees draws ``[o]`` for
+both a selector and a success): see :func:`legend`. Unicode symbols where the output can encode
+them, ASCII otherwise (and in dot files, whose fonts may lack the glyphs).
+
+The live drawing is compact: a composite that is not running is folded to one line (a finished
 waypoint shows what it ended with), the running branch is open, and runs of folded siblings are
-grouped when the tree would not fit ``max_rows``. Status and composite kind use different
-symbols (py_trees draws ``[o]`` for both a selector and a success): see :func:`legend`. A
-node that was not ticked shows no message, so nothing stale stays on screen.
+grouped when the tree would not fit ``max_rows``. A node that was not ticked shows no message,
+so nothing stale stays on screen.
+
+:func:`dot_tree` writes Graphviz dot with node ids ``n0, n1, ...`` and the same labels as the
+text (ASCII). py_trees' ``dot_tree`` uses the names as node ids, so a ``:`` in one ("Waypoint 1:
+red") reads as a *port* in edge statements (Graphviz warns and draws the wrong node); here a
+repeated name is told apart by its nearest uniquely named ancestor ("Passed?" / "in Waypoint 2:
+green").
 """
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any
 
 import py_trees
-
-from marknav.missions.tree_display import kind_of
+from py_trees.behaviour import Behaviour
 
 RUNNING, SUCCESS, FAILURE, INVALID = "RUNNING", "SUCCESS", "FAILURE", "INVALID"
 
@@ -34,6 +48,8 @@ KIND_SYMBOLS = {
               "leaf": ""},
 }
 FOLD = {"unicode": "▸", "ascii": "::"}
+#: After the name of a composite with memory (both styles: plain letters every font has).
+MEMORY = " (m)"
 #: A failure its selector is handling (a condition that is simply false, e.g. ``Passed?``).
 HANDLED = "HANDLED"
 #: rich styles per status (the live view and replay; plain text ignores them).
@@ -41,13 +57,34 @@ STATUS_STYLE = {RUNNING: "bold yellow", SUCCESS: "green", FAILURE: "bold red", I
                 HANDLED: "dim red"}
 
 
+def kind_of(node: Behaviour) -> str:
+    """What a node is: ``sequence``, ``selector``, ``parallel``, ``decorator`` or ``leaf``."""
+    if isinstance(node, py_trees.composites.Sequence):
+        return "sequence"
+    if isinstance(node, py_trees.composites.Selector):
+        return "selector"
+    if isinstance(node, py_trees.composites.Parallel):
+        return "parallel"
+    if isinstance(node, py_trees.decorators.Decorator):
+        return "decorator"
+    return "leaf"
+
+
+def has_memory(node: Behaviour) -> bool:
+    """A composite that resumes at its running child (py_trees' ``memory=True``)."""
+    return isinstance(node, py_trees.composites.Composite) and bool(
+        getattr(node, "memory", False))
+
+
 def legend(style: str = "unicode") -> str:
     """One line explaining the symbols."""
     s, k = STATUS_SYMBOLS[style], KIND_SYMBOLS[style]
     status = "  ".join(f"{s[v].strip()} {w}" for v, w in (
         (RUNNING, "running"), (SUCCESS, "success"), (FAILURE, "failure"), (INVALID, "idle")))
-    kinds = "  ".join(f"{k[v].strip()} {v}" for v in ("sequence", "selector", "parallel"))
-    return f"{status}  |  {kinds}  |  {FOLD[style]} folded"
+    kinds = "  ".join(f"{k[v].strip()} {v}"
+                      for v in ("sequence", "selector", "parallel", "decorator"))
+    return (f"{status}  |  {kinds}  |  {MEMORY.strip()} memory: resumes its running child  |  "
+            f"{FOLD[style]} folded")
 
 
 @dataclass
@@ -60,6 +97,8 @@ class TreeState:
     status: list[str] = field(default_factory=list)
     message: list[str] = field(default_factory=list)
     children: list[list[int]] = field(default_factory=list)
+    #: per node: a composite with memory (run logs written before it was kept: all False)
+    memory: list[bool] = field(default_factory=list)
     _nodes: list[py_trees.behaviour.Behaviour] = field(default_factory=list, repr=False)
 
     def __post_init__(self) -> None:
@@ -68,6 +107,8 @@ class TreeState:
             self.status = [INVALID] * n
         if not self.message:
             self.message = [""] * n
+        if not self.memory:
+            self.memory = [False] * n
         self.children = [[] for _ in range(n)]
         for i, p in enumerate(self.parents):
             if p >= 0:
@@ -79,17 +120,20 @@ class TreeState:
         index = {id(n): i for i, n in enumerate(nodes)}
         parents = [index.get(id(n.parent), -1) if n.parent is not None else -1 for n in nodes]
         state = cls(names=[n.name for n in nodes], kinds=[kind_of(n) for n in nodes],
-                    parents=parents)
+                    parents=parents, memory=[has_memory(n) for n in nodes])
         state._nodes = nodes
         return state
 
     def structure(self) -> dict[str, Any]:
-        """The JSON form of the shape (names, kinds, parents), for the run log's start record."""
-        return {"names": self.names, "kinds": self.kinds, "parents": self.parents}
+        """The JSON form of the shape (names, kinds, parents, memory), for the run log's start
+        record."""
+        return {"names": self.names, "kinds": self.kinds, "parents": self.parents,
+                "memory": self.memory}
 
     @classmethod
     def from_structure(cls, d: dict[str, Any]) -> TreeState:
-        return cls(names=list(d["names"]), kinds=list(d["kinds"]), parents=list(d["parents"]))
+        return cls(names=list(d["names"]), kinds=list(d["kinds"]), parents=list(d["parents"]),
+                   memory=[bool(m) for m in d.get("memory", ())])
 
     def capture(self) -> dict[str, list[str]]:
         """Read the live tree; return ``{index: [status, message]}`` for the nodes that changed.
@@ -141,11 +185,15 @@ class TreeState:
             stack.extend(reversed(self.children[j]))
         return found
 
-    def lines(self, *, style: str = "unicode", max_rows: int = 25) -> list[tuple[str, str]]:
+    def lines(self, *, style: str = "unicode", max_rows: int = 25,
+              full: bool = False) -> list[tuple[str, str]]:
         """The drawing as ``(text, status)`` rows, at most ``max_rows`` of them (``status`` is
-        :data:`HANDLED` for a failure its selector is handling)."""
+        :data:`HANDLED` for a failure its selector is handling); ``full``: every node, none
+        folded, however many rows."""
         if not self.names:
             return []
+        if full:
+            return self._draw(style, group=False, full=True)
         rows = self._draw(style, group=False)
         if len(rows) > max_rows:
             rows = self._draw(style, group=True)
@@ -154,14 +202,17 @@ class TreeState:
             rows = [*rows[:max_rows - 1], (f"… {hidden} more rows", INVALID)]
         return rows
 
-    def text(self, *, style: str = "unicode", max_rows: int = 25) -> str:
-        return "\n".join(t for t, _ in self.lines(style=style, max_rows=max_rows))
+    def text(self, *, style: str = "unicode", max_rows: int = 25, full: bool = False) -> str:
+        return "\n".join(t for t, _ in self.lines(style=style, max_rows=max_rows, full=full))
+
+    def label(self, i: int, style: str) -> str:
+        """Node ``i``'s kind, name and memory mark (the text lines' and the dot labels')."""
+        return (f"{KIND_SYMBOLS[style][self.kinds[i]]}{self.names[i]}"
+                f"{MEMORY if self.memory[i] else ''}")
 
     def _line(self, i: int, depth: int, style: str, folded: bool) -> tuple[str, str]:
         st = self.status[i]
-        kind = self.kinds[i]
-        head = (f"{'  ' * depth}{STATUS_SYMBOLS[style][st]} {KIND_SYMBOLS[style][kind]}"
-                f"{self.names[i]}")
+        head = f"{'  ' * depth}{STATUS_SYMBOLS[style][st]} {self.label(i, style)}"
         if folded:
             msg = self.summary(i)
             head += f" {FOLD[style]}"
@@ -174,12 +225,12 @@ class TreeState:
             st = HANDLED  # drawn dim: the selector goes on with its next child
         return (head + (dash + msg if msg else ""), st)
 
-    def _draw(self, style: str, *, group: bool) -> list[tuple[str, str]]:
+    def _draw(self, style: str, *, group: bool, full: bool = False) -> list[tuple[str, str]]:
         rows: list[tuple[str, str]] = []
 
         def walk(i: int, depth: int) -> None:
             finished = self.status[0] in (SUCCESS, FAILURE)
-            open_ = (i == 0 or (self.children[i] and self.status[i] == RUNNING)
+            open_ = (full or i == 0 or (self.children[i] and self.status[i] == RUNNING)
                      or (finished and depth == 1 and len(self.children[i]) > 2))
             rows.append(self._line(i, depth, style, folded=bool(self.children[i]) and not open_))
             if not open_:
@@ -216,3 +267,52 @@ def _preorder(root: py_trees.behaviour.Behaviour) -> list[py_trees.behaviour.Beh
         stack.extend(reversed(node.children))
     return out
 
+
+
+# --- dot ------------------------------------------------------------------------------------
+
+_DOT_STYLE = {"selector": ("octagon", "cyan"), "sequence": ("box", "orange"),
+              "parallel": ("parallelogram", "gold"), "decorator": ("ellipse", "ghostwhite"),
+              "leaf": ("ellipse", "gray")}
+
+
+def _quote(text: str) -> str:
+    """A dot double-quoted string (backslashes and quotes escaped, newlines as \\n)."""
+    escaped = text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
+    return f'"{escaped}"'
+
+
+def dot_tree(root: Behaviour) -> str:
+    """The tree as Graphviz dot text (render: ``dot -Tpng FILE -o tree.png``): each node
+    labelled as the text drawing's ASCII style labels it, the legend under the graph."""
+    import pydot
+
+    state = TreeState.of_tree(root)
+    counts = Counter(state.names)
+
+    def label(i: int) -> str:
+        lines = [state.label(i, "ascii")]
+        name = state.names[i]
+        if counts[name] > 1:  # say where it is: its nearest uniquely named ancestor
+            up = state.parents[i]
+            while up >= 0 and counts[state.names[up]] > 1:
+                up = state.parents[up]
+            if up >= 0:
+                lines.append(f"in {state.names[up].split(' (', 1)[0]}")  # "Waypoint 2: green"
+        return "\n".join(lines)
+
+    graph = pydot.Dot(graph_type="digraph", graph_name="marknav", ordering="out")
+    kinds = "  ".join(f"{KIND_SYMBOLS['ascii'][k].strip()} {k}"
+                      for k in ("sequence", "selector", "parallel", "decorator"))
+    graph.set("label", _quote(f"{kinds}  {MEMORY.strip()} memory: resumes its running child"))
+    graph.set("labelloc", "b")
+    graph.set("fontname", "Helvetica")
+    graph.set("fontsize", "10")
+    graph.set_node_defaults(fontname="Helvetica", fontsize="10", style="filled")
+    for i in range(len(state.names)):
+        shape, colour = _DOT_STYLE[state.kinds[i]]
+        graph.add_node(pydot.Node(f"n{i}", label=_quote(label(i)), shape=shape,
+                                  fillcolor=colour))
+        if state.parents[i] >= 0:
+            graph.add_edge(pydot.Edge(f"n{state.parents[i]}", f"n{i}"))
+    return str(graph.to_string())
