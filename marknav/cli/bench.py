@@ -138,13 +138,17 @@ def machine_info() -> dict[str, Any]:
             "numpy": np.__version__, "opencv": cv2.__version__}
 
 
-def run_benchmarks(names: list[str], *, quick: bool = False) -> dict[str, Any]:
+def run_benchmarks(names: list[str], *, quick: bool = False,
+                   on_start: Callable[[int, str], None] | None = None) -> dict[str, Any]:
     """``{"machine": ..., name: section, ...}`` for the named benchmarks, in registry order.
-    A section's own ``machine`` entry (the vision bench has one) moves to the top level."""
+    A section's own ``machine`` entry (the vision bench has one) moves to the top level.
+    ``on_start(done, name)`` is called before each benchmark."""
     out: dict[str, Any] = {"machine": machine_info()}
     for name in BENCHMARKS:
         if name not in names:
             continue
+        if on_start is not None:
+            on_start(len(out) - 1, name)
         section = dict(BENCHMARKS[name].run(quick))
         extra = section.pop("machine", None)
         if isinstance(extra, dict):
@@ -207,19 +211,34 @@ def profile_top(stats: pstats.Stats, n: int) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    from marknav.runs.progress import Progress
+
     names = ([n for n, b in BENCHMARKS.items() if b.in_all] if args.which == "all"
              else [args.which])
+    # one redraw a second on a terminal: the bar's thread must not weigh on the timings
+    progress = Progress("bench", sys.stderr, unit="benchmarks done", redraws_per_s=1.0)
+
+    def on_start(done: int, name: str) -> None:
+        if not progress.started:
+            progress.start(len(names))
+        progress.update(done, note=f"running {name}")
+
     if args.profile is not None:
         if args.profile < 1:
             raise InputError(f"must be at least 1, got {args.profile}", field="--profile")
         profiler = cProfile.Profile()
         profiler.enable()
         try:
-            results = run_benchmarks(names, quick=args.quick)
+            results = run_benchmarks(names, quick=args.quick, on_start=on_start)
         finally:
             profiler.disable()
+            progress.finish()
         print(profile_top(pstats.Stats(profiler), args.profile), file=sys.stderr)
     else:
-        results = run_benchmarks(names, quick=args.quick)
+        try:
+            results = run_benchmarks(names, quick=args.quick, on_start=on_start)
+            progress.update(len(names), note="")
+        finally:
+            progress.finish()
     print(json.dumps(results, indent=2) if args.json else _text(results))
     return 0

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from typing import TYPE_CHECKING
 
 from marknav.core.errors import InputError
@@ -59,9 +60,13 @@ def run(args: argparse.Namespace) -> int:
 
         check_output_file(Path(args.plot), option="--plot")
     if args.sim:
+        from marknav.runs.progress import Progress
         from marknav.sim.calibration import sim_calibration_table
 
-        rows = sim_calibration_table()
+        with Progress("calibrate: the simulator's range table", sys.stderr,
+                      unit="distances measured") as progress:
+            rows = sim_calibration_table(
+                on_row=lambda done, total: progress.update(done, total=total))
         fit = fit_power_law([r for r, _ in rows], [d for _, d in rows])
         source = "the simulator"
     else:

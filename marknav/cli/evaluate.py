@@ -6,14 +6,15 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import threading
-import time
-from typing import TextIO
+from pathlib import Path
+from typing import TYPE_CHECKING
 
+from marknav.cli.run import PREPARING
 from marknav.cli.validate import set_item
-from marknav.core.errors import InputError, MissionFailed
+from marknav.core.errors import EXIT_INTERRUPTED, InputError, MissionFailed
 
-BAR_WIDTH = 20
+if TYPE_CHECKING:
+    from marknav.runs.evaluate import Evaluation
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -65,82 +66,6 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.set_defaults(func=run)
 
 
-class ProgressBar:
-    """Progress of an evaluation, from its start: ``[#####-----] 12/20 done, 11 successes,
-    1:02 elapsed, ETA 0:43``, on a terminal only: shown when the runs start, redrawn as each
-    finishes and every second in between (so the elapsed time moves before the first run
-    finishes)."""
-
-    def __init__(self, out: TextIO, *, refresh_s: float = 1.0) -> None:
-        self.out = out
-        self.tty = out.isatty()
-        self.refresh_s = refresh_s
-        self.total = 0
-        self.done = 0
-        self.successes = 0
-        self.t0 = time.monotonic()
-        self.shown = False
-        self._lock = threading.Lock()
-        self._stop = threading.Event()
-        self._ticker: threading.Thread | None = None
-
-    def start(self, total: int) -> None:
-        """The evaluation of ``total`` runs starts now."""
-        self.total, self.t0 = total, time.monotonic()
-        if not self.tty:
-            return
-        self._draw()
-        if self.refresh_s > 0:
-            self._ticker = threading.Thread(target=self._tick, name="marknav-progress",
-                                            daemon=True)
-            self._ticker.start()
-
-    def line(self) -> str:
-        elapsed = time.monotonic() - self.t0
-        total = max(self.total, 1)
-        filled = BAR_WIDTH * self.done // total
-        eta = _clock(elapsed / self.done * (self.total - self.done)) if self.done else "—"
-        return (f"[{'#' * filled}{'-' * (BAR_WIDTH - filled)}] {self.done}/{self.total} done, "
-                f"{self.successes} success{'es' if self.successes != 1 else ''}, "
-                f"{_clock(elapsed)} elapsed, ETA {eta}")
-
-    def _draw(self) -> None:
-        with self._lock:
-            self.out.write(f"\r{self.line()}\x1b[K")
-            self.out.flush()
-            self.shown = True
-
-    def _tick(self) -> None:
-        while not self._stop.wait(self.refresh_s):
-            self._draw()
-
-    def __call__(self, done: int, total: int, successes: int) -> None:
-        if done == 0:  # the runs start (the input was good)
-            self.start(total)
-            return
-        self.done, self.total, self.successes = done, total, successes
-        if self.tty:
-            self._draw()
-
-    def finish(self) -> None:
-        self._stop.set()
-        if self._ticker is not None:
-            self._ticker.join()
-            self._ticker = None
-        if self.shown:
-            self.out.write("\n")
-            self.out.flush()
-            self.shown = False
-
-
-def _clock(seconds: float) -> str:
-    """``m:ss`` (or ``h:mm:ss``)."""
-    s = max(0, round(seconds))
-    h, rest = divmod(s, 3600)
-    m, sec = divmod(rest, 60)
-    return f"{h}:{m:02d}:{sec:02d}" if h else f"{m}:{sec:02d}"
-
-
 def run(args: argparse.Namespace) -> int:
     if args.accuracy:
         return _accuracy(args)
@@ -159,7 +84,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("give the number of runs: --runs N", field="--runs")
     from marknav.missions.examples import mission_path
     from marknav.missions.overrides import parse_overrides
-    from marknav.runs.evaluate import RANDOM, evaluate, format_evaluation
+    from marknav.runs.evaluate import RANDOM, EvaluationStopped, evaluate
+    from marknav.runs.progress import Progress, slow_status
+    from marknav.runs.run import prepare
 
     if args.mission != RANDOM:
         args.mission = mission_path(args.mission)
@@ -168,21 +95,45 @@ def run(args: argparse.Namespace) -> int:
     if args.dask is not None and args.jobs != 1:
         raise InputError("--jobs is for local processes; with --dask the cluster's workers "
                          "run the evaluation", field="--jobs")
-    bar = ProgressBar(sys.stderr)
+    if args.dask is None:  # the workers load the compiled loops this builds
+        with slow_status(PREPARING, sys.stderr):
+            prepare(simulator=True)
+    name = "random missions" if args.mission == RANDOM else Path(args.mission).stem
+    progress = Progress(f"evaluate {name}", sys.stderr, unit="runs done")
+
+    def on_progress(done: int, total: int, successes: int) -> None:
+        if done == 0:  # the runs start (the input was good)
+            progress.start(total)
+        else:
+            progress.update(done, note=f"{successes} success{'es' if successes != 1 else ''}")
+
     try:
         ev = evaluate(args.mission, runs=args.runs, seed=args.seed, jobs=args.jobs,
-                      max_time_s=args.max_time, min_success=args.min_success, progress=bar,
-                      overrides=args.overrides, dask=args.dask)
+                      max_time_s=args.max_time, min_success=args.min_success,
+                      progress=on_progress, overrides=args.overrides, dask=args.dask)
+    except EvaluationStopped as stop:
+        progress.finish()
+        _print(stop.evaluation, as_json=args.json)
+        print(f"marknav evaluate: interrupted; {stop.evaluation.runs} of "
+              f"{stop.evaluation.planned_runs} runs had finished: their figures are printed, "
+              "marked interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     finally:
-        bar.finish()
-    if args.json:
-        print(json.dumps(ev.to_dict(), indent=2))
-    else:
-        print(format_evaluation(ev))
+        progress.finish()
+    _print(ev, as_json=args.json)
     if not ev.passed:
         raise MissionFailed(f"success rate {ev.success_rate:.1%} ({ev.successes}/{ev.runs}) is "
                             f"under --min-success {ev.min_success:.1%}")
     return 0
+
+
+def _print(ev: Evaluation, *, as_json: bool) -> None:
+    from marknav.runs.evaluate import format_evaluation
+
+    if as_json:
+        print(json.dumps(ev.to_dict(), indent=2), flush=True)
+    else:
+        print(format_evaluation(ev), flush=True)
 
 
 def _accuracy(args: argparse.Namespace) -> int:

@@ -8,6 +8,7 @@ import logging
 import sys
 from pathlib import Path
 
+from marknav.cli.run import PREPARING
 from marknav.core.errors import EXIT_INTERRUPTED, InputError
 
 log = logging.getLogger(__name__)
@@ -54,6 +55,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from marknav.missions.examples import mission_path
+    from marknav.runs.progress import Progress, slow_status
+    from marknav.runs.run import prepare
     from marknav.runs.tune import TrialSummary, best_yaml, parse_param, plot_trials, tune
 
     params = [parse_param(text) for text in args.param]
@@ -64,24 +67,38 @@ def run(args: argparse.Namespace) -> int:
     if args.plot is not None and not args.plot.lower().endswith(".png"):
         raise InputError("the plot is a PNG file: give a name ending in .png", field="--plot")
 
-    def on_trial(t: TrialSummary, best: TrialSummary, complete: int) -> None:
+    if args.dask is None:  # the workers load the compiled loops this builds
+        with slow_status(PREPARING, sys.stderr):
+            prepare(simulator=True)
+    progress = Progress(f"tune {Path(args.mission).stem}", sys.stderr, unit="trials complete")
+    best_so_far: list[TrialSummary] = []
+
+    def describe(t: TrialSummary) -> str:
         values = ", ".join(f"{k.rsplit('.', 1)[-1]}={v:g}" for k, v in t.params.items())
-        print(f"trial {t.number} ({complete}/{args.trials} complete): {values} -> success "
-              f"{t.successes}/{t.runs}, median {t.median_time_s:.1f} s"
-              f"{'  (best so far)' if best.number == t.number else ''}",
-              file=sys.stderr, flush=True)
+        return (f"trial {t.number}: {values} -> success {t.successes}/{t.runs}, median "
+                f"{t.median_time_s:.1f} s")
+
+    def on_trial(t: TrialSummary, best: TrialSummary, complete: int) -> None:
+        best_so_far[:] = [best]
+        line = describe(t).replace(":", f" ({complete}/{args.trials} complete):", 1)
+        progress.log(f"{line}{'  (best so far)' if best.number == t.number else ''}")
+        progress.update(complete, note=f"best: trial {best.number}")
 
     try:
         result = tune(args.mission, params, trials=args.trials, runs=args.runs, seed=args.seed,
                       jobs=args.jobs, dask=args.dask, max_time_s=args.max_time,
-                      storage=args.storage, study_name=args.study, on_trial=on_trial)
+                      storage=args.storage, study_name=args.study, on_trial=on_trial,
+                      on_start=lambda done: progress.start(args.trials, done=done))
     except KeyboardInterrupt:
-
+        progress.finish()
         # This is the whole message: returning (not re-raising) keeps the CLI's generic
         # "interrupted" line from repeating it.
-        print("marknav tune: interrupted; the completed trials are stored — run the same "
-              "command again to resume", file=sys.stderr)
+        best = f"; best so far {describe(best_so_far[0])}" if best_so_far else ""
+        print(f"marknav tune: interrupted; the completed trials are stored{best} — run the "
+              "same command again to resume", file=sys.stderr)
         return EXIT_INTERRUPTED
+    finally:
+        progress.finish()
     plot = Path(args.plot) if args.plot else None
     if plot is None and result.storage.startswith("sqlite:///"):
         plot = Path(result.storage.removeprefix("sqlite:///")).parent / "trials.png"

@@ -358,6 +358,10 @@ class Evaluation:
     failures: list[SeedResult] = field(default_factory=list)
     incidents: list[tuple[SeedResult, list[str]]] = field(default_factory=list)
     overrides: tuple[str, ...] = ()  # the --set KEY=VALUE settings every run used
+    #: Ctrl-C (or SIGTERM) stopped the evaluation: the figures are those of the runs that
+    #: finished, out of ``planned_runs``.
+    interrupted: bool = False
+    planned_runs: int = 0
 
     @property
     def clearance_target_mm(self) -> float:
@@ -378,6 +382,8 @@ class Evaluation:
         return {
             "mission": self.mission,
             "runs": self.runs,
+            "interrupted": self.interrupted,
+            "planned_runs": self.planned_runs or self.runs,
             "seeds": list(self.seeds),
             "overrides": list(self.overrides),
             "jobs": self.jobs,
@@ -482,6 +488,16 @@ def summarise(
 Progress = Callable[[int, int, int], None]
 
 
+class EvaluationStopped(KeyboardInterrupt):
+    """The evaluation was interrupted; ``evaluation`` summarises the runs that had finished
+    (``interrupted`` set). A ``KeyboardInterrupt``: a caller that does not look for it sees
+    the interruption as before."""
+
+    def __init__(self, evaluation: Evaluation, signame: str = "SIGINT") -> None:
+        super().__init__(signame)
+        self.evaluation = evaluation
+
+
 def evaluate(
     mission_path: str | Path,
     *,
@@ -540,15 +556,25 @@ def evaluate(
         progress(0, runs, 0)
     resolve = dask is not None and path != RANDOM  # a cluster's cwd differs
     spec = str(Path(path).resolve()) if resolve else path  # a cluster's cwd differs
-    _, workers = run_jobs(run_seed, [(spec, s, tuple(overrides)) for s in seeds],
-                          max_time_s=max_time_s,
-                          workers=jobs, dask=dask, on_result=done)
-    ev = summarise(results, mission=name, mission_path=path,
-                   clearance_mm=clearance, min_success=min_success,
-                   max_time_s=max_time_s, jobs=workers,
-                   wall_total_s=time.perf_counter() - wall0)
-    ev.overrides = tuple(overrides)
-    return ev
+
+    def summary(workers: int) -> Evaluation:
+        ev = summarise(list(results), mission=name, mission_path=path,
+                       clearance_mm=clearance, min_success=min_success,
+                       max_time_s=max_time_s, jobs=workers,
+                       wall_total_s=time.perf_counter() - wall0)
+        ev.overrides = tuple(overrides)
+        ev.planned_runs = runs
+        return ev
+
+    try:
+        _, workers = run_jobs(run_seed, [(spec, s, tuple(overrides)) for s in seeds],
+                              max_time_s=max_time_s,
+                              workers=jobs, dask=dask, on_result=done)
+    except KeyboardInterrupt as exc:  # what finished is kept (the runs cut short are not)
+        ev = summary(jobs)
+        ev.interrupted = True
+        raise EvaluationStopped(ev, str(exc) or "SIGINT") from exc
+    return summary(workers)
 
 
 def format_evaluation(ev: Evaluation) -> str:
@@ -556,6 +582,8 @@ def format_evaluation(ev: Evaluation) -> str:
     lo, hi = ev.success_ci95
     first, last = ev.seeds
     lines = [
+        *([f"INTERRUPTED: the {ev.runs} run{'s' if ev.runs != 1 else ''} that finished of the "
+           f"{ev.planned_runs} planned"] if ev.interrupted else []),
         f"{ev.mission}: {ev.runs} simulated run{'s' if ev.runs != 1 else ''} on "
         + ("generated missions and " if ev.mission_path == RANDOM else "")
         + f"randomised worlds (seeds {first}–{last}, {ev.jobs} job{'s' if ev.jobs != 1 else ''})",

@@ -57,7 +57,8 @@ class Progress:
 
     def __init__(self, label: str, out: TextIO, *, total: int = 0, unit: str = "done",
                  every_s: float = PIPED_EVERY_S, terminal: bool | None = None,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic, redraws_per_s: float = 4.0
+                 ) -> None:
         self.label = label
         self.out = out
         self.total = total
@@ -65,7 +66,9 @@ class Progress:
         self.every_s = every_s
         self.terminal = is_terminal(out) if terminal is None else terminal
         self.clock = clock
+        self.redraws_per_s = redraws_per_s
         self.done = 0
+        self.base = 0  # steps done before this start (a resumed study): not in the pace
         self.note = ""
         self.t0 = clock()
         self._last_line = -float("inf")
@@ -79,9 +82,10 @@ class Progress:
     # -- the text --------------------------------------------------------------------------
     def eta_s(self) -> float | None:
         """Seconds left at the mean pace so far (None before the first step)."""
-        if self.done <= 0 or self.total <= 0:
+        if self.done - self.base <= 0 or self.total <= 0:
             return None
-        return (self.clock() - self.t0) / self.done * max(self.total - self.done, 0)
+        return ((self.clock() - self.t0) / (self.done - self.base)
+                * max(self.total - self.done, 0))
 
     def line(self) -> str:
         """The state as one plain line."""
@@ -93,10 +97,12 @@ class Progress:
                 f"{clock_text(elapsed)} elapsed, ETA {'—' if eta is None else clock_text(eta)}")
 
     # -- life cycle ------------------------------------------------------------------------
-    def start(self, total: int | None = None) -> Progress:
-        """The work starts now (the clock of the ETA starts too)."""
+    def start(self, total: int | None = None, *, done: int = 0) -> Progress:
+        """The work starts now (the clock of the ETA starts too), ``done`` steps already
+        done."""
         if total is not None:
             self.total = total
+        self.done = self.base = done
         self.t0 = self.clock()
         self.started = True
         if self.terminal:
@@ -114,8 +120,10 @@ class Progress:
                 TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
                 TextColumn("{task.fields[note]}"), TimeElapsedColumn(),
                 TextColumn("ETA"), TimeRemainingColumn(),
-                console=Console(file=self.out), transient=False, refresh_per_second=4)
-            self._task = self._bar.add_task(self.label, total=self.total or None, note="")
+                console=Console(file=self.out), transient=False,
+                refresh_per_second=self.redraws_per_s)
+            self._task = self._bar.add_task(self.label, total=self.total or None, note="",
+                                            completed=done)
             self._bar.start()
         else:
             self._write_line()
@@ -140,6 +148,19 @@ class Progress:
                                  note=self.note)
         if self._bar is None and self.started:
             self.tick()
+
+    def log(self, text: str) -> None:
+        """A line of its own: above the bar on a terminal, between the progress lines
+        elsewhere."""
+        if self._bar is not None:
+            self._bar.console.print(text, highlight=False, markup=False)
+            return
+        with self._lock:
+            try:
+                self.out.write(text + "\n")
+                self.out.flush()
+            except (OSError, ValueError):
+                pass
 
     def tick(self) -> None:
         """Piped: write a line if ``every_s`` has passed since the last one."""

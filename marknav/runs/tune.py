@@ -195,9 +195,11 @@ def tune(
     sampler_seed: int = 0,
     folder: Path | None = None,
     on_trial: Callable[[TrialSummary, TrialSummary, int], None] | None = None,
+    on_start: Callable[[int], object] | None = None,
 ) -> TuneResult:
     """Run (or resume) the study until ``trials`` trials are complete; see the module docstring.
-    ``on_trial(trial, best, complete)`` is called after each trial."""
+    ``on_start(complete)`` is called once the study is open (``complete``: trials it already
+    has), ``on_trial(trial, best, complete)`` after each trial."""
     try:
         import optuna
     except ImportError:
@@ -274,6 +276,8 @@ def tune(
             on_trial(_summary(frozen), _summary(study.best_trial), len(complete()))
 
     remaining = trials - len(complete())
+    if on_start is not None:
+        on_start(len(complete()))
     attempts = 0
     while len(complete()) < trials:
         if attempts >= MAX_ATTEMPTS_FACTOR * trials:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 import statistics
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -39,11 +39,13 @@ def sim_calibration_table(
     conditions: Conditions | None = None,
     frames: int = 1,
     seed: int = 0,
+    on_row: Callable[[int, int], object] | None = None,
 ) -> list[tuple[float, float]]:
     """Rows ``(radius_px, distance_mm)``: the detected radius (median over ``frames`` noisy
     frames) of a mark straight ahead of the camera at each distance. ``camera`` defaults to
     :class:`CameraConfig` (640×480, f = 590 px), ``conditions`` to the default
-    :class:`Conditions` (noise σ 2); the background is drawn from ``seed``.
+    :class:`Conditions` (noise σ 2); the background is drawn from ``seed``. ``on_row(done,
+    total)`` is called after each distance.
 
     Raises :class:`~marknav.core.errors.MissionFailed` if the detector misses the mark at a
     distance.
@@ -78,6 +80,8 @@ def sim_calibration_table(
                 f"{d:g} mm ahead"
             )
         rows.append((float(statistics.median(radii)), float(d)))
+        if on_row is not None:
+            on_row(len(rows), len(distances_mm))
     return rows
 
 

@@ -193,40 +193,9 @@ def test_pool_workers_die_with_a_killed_parent(tiny: Path) -> None:
     assert _wait_group(proc.pid, 0) == []
 
 
-def test_help_and_progress_text(capsys: pytest.CaptureFixture[str]) -> None:
-    from marknav.cli.evaluate import ProgressBar
-
+def test_help_text(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit):
         main(["evaluate", "--help"])
     text = " ".join(capsys.readouterr().out.split())
     assert "95 % confidence" in text and "%%" not in text
     assert "--dask tcp://HOST:PORT" in text
-
-    class Terminal:
-        def __init__(self, tty: bool) -> None:
-            self.text = ""
-            self.tty = tty
-
-        def isatty(self) -> bool:
-            return self.tty
-
-        def write(self, s: str) -> None:
-            self.text += s
-
-        def flush(self) -> None:
-            pass
-
-    term = Terminal(True)
-    bar = ProgressBar(term, refresh_s=0)  # type: ignore[arg-type]
-    bar(0, 4, 0)  # the runs start: shown at once, before any finishes
-    assert term.text == "\r[--------------------] 0/4 done, 0 successes, 0:00 elapsed, ETA —\x1b[K"
-    bar(1, 4, 1)
-    bar.finish()
-    assert term.text.endswith("\r[#####---------------] 1/4 done, 1 success, 0:00 elapsed, "
-                              "ETA 0:00\x1b[K\n")
-    pipe = Terminal(False)
-    bar = ProgressBar(pipe)  # type: ignore[arg-type]
-    bar(0, 4, 0)
-    bar(1, 4, 1)
-    bar.finish()
-    assert pipe.text == ""  # not a terminal: the output stays the summary alone
