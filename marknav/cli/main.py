@@ -23,6 +23,7 @@ from marknav.cli import (
     bench,
     calibrate,
     calibrate_camera,
+    completion,
     detect,
     evaluate,
     examples,
@@ -44,7 +45,7 @@ log = logging.getLogger(__name__)
 #: The modules that each register one sub-command, in the order ``--help`` shows them.
 COMMANDS: tuple[ModuleType, ...] = (
     run, validate, tree, evaluate, replay, examples, tune, random_mission, bench, detect, calibrate,
-    calibrate_camera, sim_robot, schema, serve_camera, serve_robot,
+    calibrate_camera, sim_robot, schema, serve_camera, serve_robot, completion,
 )
 
 
@@ -74,6 +75,7 @@ def build_parser() -> argparse.ArgumentParser:
         module.register(sub)
     for command in sub.choices.values():
         _global_options(command, after_command=True)
+    parser.set_defaults(root_parser=parser)  # 'marknav completion' describes it
     return parser
 
 
