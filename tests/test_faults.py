@@ -229,6 +229,7 @@ def test_2_unwritable_events_with_a_serial_robot_exit_2_before_touching_it(
     assert robot.bytes_in == 0  # never opened: not left in Safe mode with its stream on
 
 
+@pytest.mark.slow
 def test_2_12_events_on_a_full_disk_the_robot_is_still_left_safe(robot: PtyServer,
                                                                  tmp_path: Path) -> None:
     report = tmp_path / "r.json"
@@ -329,6 +330,7 @@ def test_4_reads_of_a_frozen_stream_never_wait(
         src.close()
 
 
+@pytest.mark.slow
 def test_5_a_run_whose_camera_freezes_aborts_cleanly(
         camera_server: tuple[subprocess.Popen[str], str], robot: PtyServer,
         tmp_path: Path) -> None:
@@ -348,6 +350,7 @@ def test_5_a_run_whose_camera_freezes_aborts_cleanly(
 
 # --- 6, 7: signals ---
 
+@pytest.mark.slow
 @pytest.mark.parametrize("second", [signal.SIGINT, signal.SIGTERM])
 def test_6_a_second_signal_cannot_lose_the_report(robot: PtyServer, tmp_path: Path,
                                                   second: int) -> None:
@@ -448,6 +451,7 @@ def test_7_sigint_while_loading_names_no_report(monkeypatch: pytest.MonkeyPatch,
     assert not (tmp_path / "runs").exists()
 
 
+@pytest.mark.slow
 def test_7_ctrl_c_while_opening_a_camera_that_never_answers(tmp_path: Path) -> None:
     with socket.socket() as listener:
         listener.bind(("127.0.0.1", 0))
@@ -477,6 +481,7 @@ def _alias_bomb() -> str:
     return "\n".join(lines) + "\n"
 
 
+@pytest.mark.slow
 def test_10_hostile_yaml_files_exit_2_naming_file_and_line(tmp_path: Path) -> None:
     files = {
         "deep.yaml": "name: " + "[" * 2000 + "]" * 2000 + "\n",

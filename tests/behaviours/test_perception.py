@@ -50,6 +50,7 @@ def test_range_model_from_the_mission(mission_factory):
     assert range_model_of(m) == PowerLaw(a=58958, b=-0.9434)
 
 
+@pytest.mark.slow
 def test_frame_to_marks_in_robot_and_world_frames(blackboard, manual_clock, mission_factory):
     robot = FakeRobot(clock=manual_clock, pose=Pose(500.0, 200.0, 0.0))  # facing +x (east)
     # a red disc 1 m ahead, 100 mm to the right: r = 59 px, centre 59 px right of the middle

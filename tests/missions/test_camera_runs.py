@@ -20,6 +20,7 @@ def _rel(law: dict[str, float], d: float) -> float:
     return PowerLaw(law["a"], law["b"]).distance_mm(TRUE.radius_px(d)) / d - 1.0
 
 
+@pytest.mark.slow
 def test_the_papers_law_on_the_simulated_camera_is_learnt(tmp_path: Path,
                                                          capsys: pytest.CaptureFixture[str]
                                                          ) -> None:
@@ -47,6 +48,7 @@ def test_the_papers_law_on_the_simulated_camera_is_learnt(tmp_path: Path,
     assert law["rejected"] <= law["steps"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("width", "height", "focal", "seed"),
                          [(320, 240, 295.0, 7), (160, 120, 147.5, 5)])
 def test_small_cameras_drive_the_slalom(width: int, height: int, focal: float, seed: int) -> None:

@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from marknav.runs.checks import checked_mission
 from marknav.runs.run import RunRequest, execute, pass_times
@@ -15,6 +16,7 @@ from marknav.runs.sim_environment import SimEnvironment
 EXAMPLE = Path(__file__).resolve().parents[2] / "missions" / "pause-at-each-mark.yaml"
 
 
+@pytest.mark.slow
 def test_pause_at_each_mark_runs(tmp_path: Path) -> None:
     mission = checked_mission(EXAMPLE)
     assert mission.tree is not None

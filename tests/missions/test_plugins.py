@@ -31,6 +31,7 @@ def _env(pythonpath: Path) -> dict[str, str]:
     return env
 
 
+@pytest.mark.slow
 def test_the_user_package_passes_its_own_kit_test() -> None:
     done = subprocess.run(
         [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider"], cwd=PKG,
@@ -143,6 +144,7 @@ def test_broken_plugins_exit_2_at_their_line(
     assert "plugins[1]: bad_register" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_entry_point_of_the_installed_package(tmp_path: Path) -> None:
     source = tmp_path / "src"
     shutil.copytree(PKG, source)  # pip builds in the source tree: keep the repository clean

@@ -37,6 +37,7 @@ def recheck(report: dict, world_path: Path) -> list[str]:  # type: ignore[type-a
                                                           mission.route])]
 
 
+@pytest.mark.slow
 def test_zigzag_passes_every_course_mark_in_order_on_its_side(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -57,6 +58,7 @@ def test_zigzag_passes_every_course_mark_in_order_on_its_side(
     assert recheck(report, ROOT / "missions" / "worlds" / "zigzag-world.yaml") == ["passed"] * 5
 
 
+@pytest.mark.slow
 def test_a_really_skipped_mark_is_reported_skipped(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

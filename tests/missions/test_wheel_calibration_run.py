@@ -46,6 +46,7 @@ def _run(calibrate: bool) -> tuple[str, int, float, float, float, float, float]:
             mission.navigation.clearance_mm)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("calibrate", [True, False])
 def test_calibrated_odometry_stays_true_where_raw_odometry_drifts(
         calibrate: bool, monkeypatch: pytest.MonkeyPatch) -> None:

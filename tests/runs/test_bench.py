@@ -98,6 +98,7 @@ def test_loop_and_tree_bench_bad_sizes() -> None:
 # ------------------------------------------------------------------------------ marknav bench
 
 
+@pytest.mark.slow
 def test_bench_all_prints_one_json_object_with_machine_once(
         capsys: pytest.CaptureFixture[str]) -> None:
     import json

@@ -22,6 +22,7 @@ TINY = {
 }
 
 
+@pytest.mark.slow
 def test_one_and_two_workers_evaluate_the_same_seeds(tmp_path: Path) -> None:
     from marknav.runs.bench_dask import bench_dask
 

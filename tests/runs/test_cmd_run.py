@@ -19,6 +19,7 @@ ROOT = Path(__file__).resolve().parents[2]
 SLALOM = ROOT / "missions" / "slalom.yaml"
 
 
+@pytest.mark.slow
 def test_slalom_completes_with_report_tree_and_plot(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -109,6 +110,7 @@ def test_unreachable_robot_port_exits_2_naming_it(
     assert "Traceback" not in err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_interrupt_stops_the_wheels_and_writes_the_report(tmp_path: Path, sig: int) -> None:
     report_path = tmp_path / "r.json"

@@ -53,6 +53,7 @@ def outcome(r: SeedResult) -> tuple[Any, ...]:
     return (r.seed, r.outcome, r.reason, r.sim_time_s, r.collisions, r.waypoints, r.ticks)
 
 
+@pytest.mark.slow
 def test_dask_gives_the_per_seed_results_of_the_local_pool(tiny: Path, cluster: Any) -> None:
     local = evaluate(tiny, runs=3, seed=5, jobs=2, max_time_s=8, min_success=0)
     seen: list[tuple[int, int, int]] = []
@@ -159,6 +160,7 @@ pytestmark_linux = pytest.mark.skipif(not Path("/proc/self/stat").exists(),
                                       reason="reads process groups from /proc")
 
 
+@pytest.mark.slow
 @pytestmark_linux
 @pytest.mark.parametrize("presses", [1, 2])
 def test_pool_ctrl_c_stops_everything(tiny: Path, presses: int) -> None:

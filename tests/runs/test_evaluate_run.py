@@ -36,6 +36,7 @@ def evaluate_json(argv: list[str], capsys: pytest.CaptureFixture[str],
     return out
 
 
+@pytest.mark.slow
 def test_runs_in_one_or_two_processes_give_the_same_results(
         tiny: Path, capsys: pytest.CaptureFixture[str]) -> None:
     # The tiny mission passes its one mark on every seed: both runs must succeed (exit 0 at

@@ -38,6 +38,7 @@ def _found(world: World, pose: Pose, seed: int) -> list[tuple[str, float]]:
     return [(m.colour, m.x) for m in Detector(GENERATOR_PALETTE).detect(image)]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("colour", list(PALETTE))
 def test_every_colour_is_read_as_itself_over_the_randomised_light(colour: str) -> None:
     # The corners of the randomised conditions: the dimmest and brightest light under each cast

@@ -59,6 +59,7 @@ def slalom_run(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
             "records": read_log(folder / "report.events.jsonl")}
 
 
+@pytest.mark.slow
 def test_statuses_are_rebuilt_tick_by_tick_from_the_log_alone(slalom_run: dict[str, Any]) -> None:
     replay = Replay(slalom_run["records"])
     live = slalom_run["live"]

@@ -41,6 +41,7 @@ def _study(folder: Path) -> object:
                              storage=f"sqlite:///{folder / 'study.sqlite3'}")
 
 
+@pytest.mark.slow
 def test_tune_interrupt_then_resume(tiny: Path, tmp_path: Path) -> None:
     argv = [sys.executable, "-m", "marknav", "tune", str(tiny), *PARAMS, "--runs", "1",
             "--max-time", "20"]
@@ -126,6 +127,7 @@ def test_bad_params_are_input_errors(tiny: Path, tmp_path: Path,
     assert not list((tmp_path / "runs" / "tune-tiny").glob("trial-*.yaml"))
 
 
+@pytest.mark.slow
 def test_combinations_the_schema_refuses_are_pruned(tiny: Path, tmp_path: Path,
                                                     monkeypatch: pytest.MonkeyPatch,
                                                     caplog: pytest.LogCaptureFixture) -> None:

@@ -7,6 +7,7 @@ import math
 
 import cv2
 import numpy as np
+import pytest
 
 from marknav.planning.kinematics import Pose
 from marknav.sim.camera import CameraConfig, Renderer
@@ -83,6 +84,7 @@ def test_distractors_have_near_colours_and_are_not_marks() -> None:
     assert found == 0
 
 
+@pytest.mark.slow
 def test_a_pole_hides_a_stripe_of_a_mark_and_the_mark_is_still_found() -> None:
     mark = (MarkSpec(colour="green", x_mm=0.0, y_mm=1200.0, radius_mm=100.0),)
     clear = _frame(Conditions(noise_sigma=0.0), mark)

@@ -52,6 +52,7 @@ def test_match_marks_pairs_by_colour_and_distance() -> None:
     assert len(pairs) == len(scene.marks) and not missed and not false
 
 
+@pytest.mark.slow
 def test_bench_vision_command_prints_one_json_object(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["bench", "vision", "--json", "--quick"]) == 0
     out = json.loads(capsys.readouterr().out)
@@ -62,6 +63,7 @@ def test_bench_vision_command_prints_one_json_object(capsys: pytest.CaptureFixtu
     assert {"cpu", "cores", "python", "opencv", "numpy"} <= set(out["machine"])
 
 
+@pytest.mark.slow
 def test_bench_vision_command_prints_a_readable_table(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["bench", "vision", "--quick"]) == 0
     text = capsys.readouterr().out

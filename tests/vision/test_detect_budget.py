@@ -104,6 +104,7 @@ def test_the_budget_must_allow_a_reading() -> None:
         DetectorConfig(max_readings=0)
 
 
+@pytest.mark.slow
 def test_the_crowded_bench_reports_each_frame_within_the_budget() -> None:
     figures = run_crowded_bench(repeats=1)
     assert set(figures) == set(crowded_frames())

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+import pytest
 
 from marknav.runs.bench_vision import SceneSpec, render_scene
 from marknav.vision.detect import Detector, DetectorConfig, Mark, gate
@@ -21,6 +22,7 @@ def _key(marks: list[Mark]) -> list[tuple[str, float, float, float]]:
     return [(m.colour, m.x, m.y, m.radius) for m in marks]
 
 
+@pytest.mark.slow
 def test_the_gated_search_finds_what_the_whole_frame_search_finds() -> None:
     gated = Detector(DEFAULT_PALETTE)
     whole = Detector(DEFAULT_PALETTE, DetectorConfig(coarse_gate=False))
@@ -87,6 +89,7 @@ def _opencv_products(image: np.ndarray, balance: np.ndarray | None, sat_min: int
     return small, hsv, mask, boxes
 
 
+@pytest.mark.slow
 def test_the_compiled_search_gives_the_opencv_search_products_exactly() -> None:
     """Frames of any size (odd, not multiples of 4), regions of larger frames, read-only
     frames; with and without white balance, hue gate, opening and horizon band; buffers used

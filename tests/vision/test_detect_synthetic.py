@@ -34,6 +34,7 @@ def detector() -> Detector:
     return Detector(DEFAULT_PALETTE)
 
 
+@pytest.mark.slow
 def test_recall_and_accuracy_on_marks_under_hard_conditions(detector: Detector) -> None:
     rng = np.random.default_rng(1)
     found = missed = false = 0

@@ -39,6 +39,7 @@ def _opencv_grey(image: np.ndarray, gains: tuple[float, float, float], s_max: in
     return count, (mean[0] * count, mean[1] * count, mean[2] * count)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("gains", [(1.0, 1.0, 1.0), (1.23, 0.91, 0.77), (0.6, 1.0, 1.6)])
 @pytest.mark.parametrize("bounds", [(40, 16, 250), (0, 0, 255), (160, 16, 250), (90, 16, 255)])
 def test_grey_sums_match_opencv_on_every_colour(every_colour: np.ndarray,
@@ -357,6 +358,7 @@ def test_radius_range_spans_the_points_normalised_radii() -> None:
     assert 0.9 < lo <= 1.0 <= hi < 1.1
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not hasattr(numba.core.config, "CACHE_LOCATOR_CLASSES"),
                     reason="this numba cannot be told which cache locators to try")
 def test_an_installation_without_a_writable_cache_still_detects(tmp_path: Path) -> None:
@@ -397,6 +399,7 @@ def _opencv_seeds(image: np.ndarray, gains: tuple[float, float, float], sat_min:
     return cv2.bitwise_and(seeds, cv2.LUT(np.ascontiguousarray(hsv[:, :, 0]), gate))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("gains", [(1.0, 1.0, 1.0), (1.23, 0.91, 0.77), (0.6, 1.0, 1.6)])
 def test_coarse_seeds_match_opencv_on_every_colour(every_colour: np.ndarray,
                                                    gains: tuple[float, float, float]) -> None:
@@ -409,6 +412,7 @@ def test_coarse_seeds_match_opencv_on_every_colour(every_colour: np.ndarray,
         assert np.array_equal(got, _opencv_seeds(slab, gains, 60, 40, gate)), rows
 
 
+@pytest.mark.slow
 def test_coarse_seeds_match_opencv_on_random_frames() -> None:
     """The block means' rounding, frame sizes, thresholds and gates."""
     rng = np.random.default_rng(21)
@@ -444,6 +448,7 @@ def _opencv_box(image: np.ndarray, box: tuple[int, int, int, int],
     return small, hsv, cv2.bitwise_and(mask, cv2.LUT(np.ascontiguousarray(hsv[:, :, 0]), gate))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("gains", [(1.0, 1.0, 1.0), (1.23, 0.91, 0.77), (0.6, 1.0, 1.6)])
 def test_search_box_matches_opencv_on_every_colour(every_colour: np.ndarray,
                                                    gains: tuple[float, float, float]) -> None:

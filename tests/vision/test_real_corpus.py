@@ -42,6 +42,7 @@ def test_the_corpus_is_found_from_the_source_tree() -> None:
     assert default_corpus() == DATA
 
 
+@pytest.mark.slow
 def test_every_labelled_round_object_is_found_with_colour_centre_and_radius(
         corpus: tuple[list[LabelledPhoto], Palette, Palette]) -> None:
     photos, palette, _ = corpus
@@ -50,6 +51,7 @@ def test_every_labelled_round_object_is_found_with_colour_centre_and_radius(
     assert result["recall"] == 1.0, result["missed"]
 
 
+@pytest.mark.slow
 def test_false_marks_with_the_horizon_prior_stay_below_a_tenth_per_photo_at_both_sizes(
         corpus: tuple[list[LabelledPhoto], Palette, Palette]) -> None:
     photos, _, negative = corpus
