@@ -70,7 +70,6 @@ def _time_route_tree(mission: Mission, *, ticks: int, warmup: int, seed: int,
     from marknav.behaviours import keys
     from marknav.behaviours.route import build_route_tree
     from marknav.core.clock import ManualClock
-    from marknav.runs.runner import MissionTree
     from marknav.sim.world import generate_world
     from marknav.testing import FakePerception, FakeRobot, WorldMark
 
@@ -90,7 +89,7 @@ def _time_route_tree(mission: Mission, *, ticks: int, warmup: int, seed: int,
         focal_px=mission.camera.focal_px, image_width=mission.camera.width,
         image_height=mission.camera.height)
     root = build_route_tree(mission, perception=perception)
-    tree = MissionTree(root)  # what marknav run ticks
+    tree = py_trees.trees.BehaviourTree(root)  # what marknav run ticks
     tree.setup(robot=robot, clock=clock, mission=mission)
     times: list[float] = []
     n = 0
@@ -214,7 +213,7 @@ def bench_loop(*, mission: Mission | None = None, max_time_s: float = 60.0,
 #: the camera's rendering and the detector; poll and advance are the simulated Create, the
 #: world's contacts and the driver's byte path.
 _PARTS = (
-    ("tick", "marknav.runs.runner", "MissionTree", "tick"),
+    ("tick", "py_trees.trees", "BehaviourTree", "tick"),
     ("render", "marknav.sim.camera", "Renderer", "render"),
     ("detector", "marknav.missions.detector", "CameraDetector", "detect"),
     ("simulation", "marknav.runs.sim_environment", "SimEnvironment", "poll"),

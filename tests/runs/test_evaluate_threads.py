@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import cv2
+import py_trees
 import pytest
 import yaml
 
@@ -66,17 +67,16 @@ def test_a_simulated_run_ticks_on_one_opencv_thread_then_restores_it(
         monkeypatch: pytest.MonkeyPatch) -> None:
     """``marknav run`` on the simulator (lock-step, small arrays) keeps OpenCV to one thread
     while the tree ticks, and gives the previous setting back when the run ends."""
-    from marknav.runs import runner
     from marknav.testing import make_mission
 
     seen: list[int] = []
-    original = runner.MissionTree.tick
+    original = py_trees.trees.BehaviourTree.tick
 
     def watching(self: Any) -> Any:
         seen.append(cv2.getNumThreads())
         return original(self)
 
-    monkeypatch.setattr(runner.MissionTree, "tick", watching)
+    monkeypatch.setattr(py_trees.trees.BehaviourTree, "tick", watching)
     before = cv2.getNumThreads()
     cv2.setNumThreads(3)
     try:
