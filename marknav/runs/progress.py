@@ -71,6 +71,7 @@ class Progress:
         self.base = 0  # steps done before this start (a resumed study): not in the pace
         self.note = ""
         self.t0 = clock()
+        self._t_step = self.t0  # when ``done`` last changed
         self._last_line = -float("inf")
         self._lock = threading.Lock()
         self._stop = threading.Event()
@@ -81,11 +82,12 @@ class Progress:
 
     # -- the text --------------------------------------------------------------------------
     def eta_s(self) -> float | None:
-        """Seconds left at the mean pace so far (None before the first step)."""
+        """Seconds left at the mean pace of the steps done so far (None before the first
+        step); between steps it counts down rather than growing with the wait."""
         if self.done - self.base <= 0 or self.total <= 0:
             return None
-        return ((self.clock() - self.t0) / (self.done - self.base)
-                * max(self.total - self.done, 0))
+        pace = (self._t_step - self.t0) / (self.done - self.base)
+        return max(self.t0 + pace * (self.total - self.base) - self.clock(), 0.0)
 
     def line(self) -> str:
         """The state as one plain line."""
@@ -103,6 +105,7 @@ class Progress:
         if total is not None:
             self.total = total
         self.done = self.base = done
+        self._t_step = self.t0
         self.t0 = self.clock()
         self.started = True
         if self.terminal:
@@ -138,9 +141,12 @@ class Progress:
         with self._lock:
             if total is not None:
                 self.total = total
+            before = self.done
             if done is not None:
                 self.done = done
             self.done += advance
+            if self.done != before:
+                self._t_step = self.clock()
             if note is not None:
                 self.note = note
             if self._bar is not None:

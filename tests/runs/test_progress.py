@@ -37,6 +37,7 @@ def test_piped_progress_writes_a_line_at_start_every_period_and_at_the_end() -> 
     clock.t += 7.0
     progress.update(2, note="2 successes")  # 12 s: a line, with the pace so far
     clock.t += 3.0
+    assert progress.eta_s() == pytest.approx(9.0)  # counts down while a run goes on
     progress.update(3, note="2 successes")
     progress.finish()  # the last state, whatever the period
     assert out.getvalue().splitlines() == [
