@@ -50,11 +50,12 @@ def test_mission_plugin_validate_tree_schema(capsys: pytest.CaptureFixture[str])
     assert main(["validate", str(MISSION)]) == 0
     assert capsys.readouterr().out == f"{MISSION}: ok (route: red → green, 2 waypoints)\n"
 
-    assert main(["tree", str(MISSION)]) == 0
+    assert main(["tree", str(MISSION), "--tree", "ascii"]) == 0
     out = capsys.readouterr().out
-    assert "--> Dance after red" in out and "--> Dance after green" in out
-    assert "[o] Waypoint 1: red (pass on its left)" in out  # indices derived from the order
-    assert "[o] Waypoint 2: green (pass on its right)" in out
+    assert "-    Dance after red\n" in out and "-    Dance after green\n" in out
+    # indices derived from the order
+    assert "-    ?? Waypoint 1: red (pass on its left)\n" in out
+    assert "-    ?? Waypoint 2: green (pass on its right)\n" in out
 
     assert main(["schema", "--plugin", "marknav_wiggle"]) == 0
     schema = json.loads(capsys.readouterr().out)

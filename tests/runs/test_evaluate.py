@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -219,8 +220,14 @@ def test_exit_1_under_min_success(mission_file: Path, scripted_runs: list[int],
     assert code == 1
     assert "success      18/20 = 90.0%" in out
     assert f"replay: marknav run {mission_file} --world random --seed 10" in out
-    assert err.strip().splitlines() == [
-        "marknav evaluate: success rate 90.0% (18/20) is under --min-success 95.0%"]
+    # (a busy machine may take over a second to load the compiled loops: a status line)
+    lines = [line for line in err.strip().splitlines()
+             if not line.startswith("preparing the detector")]
+    # piped: progress lines (at the start, every 10 s, at the end), then the verdict
+    assert lines[0].startswith(f"evaluate {mission_file.stem}: 0/20 runs done, ")
+    assert lines[-2].startswith(f"evaluate {mission_file.stem}: 20/20 runs done, 18 successes")
+    assert lines[-1] == ("marknav evaluate: success rate 90.0% (18/20) is under --min-success "
+                         "95.0%")
 
 
 def test_exit_0_at_or_over_min_success(mission_file: Path, scripted_runs: list[int],
@@ -230,7 +237,9 @@ def test_exit_0_at_or_over_min_success(mission_file: Path, scripted_runs: list[i
     out, err = capsys.readouterr()
     d = json.loads(out)
     assert d["success_rate"] == 0.9 and [f["seed"] for f in d["failures"]] == [10, 20]
-    assert err == ""  # stderr is not a terminal: no progress bar
+    # stdout is the JSON alone; stderr has the piped progress lines only
+    assert all(line.startswith(("evaluate ", "preparing the detector"))
+               for line in err.splitlines())
     assert main(["evaluate", str(mission_file), "--runs", "9", "--seed", "1"]) == 0
 
 
@@ -272,13 +281,12 @@ def test_progress_bar_on_a_terminal(mission_file: Path, scripted_runs: list[int]
     assert main(["evaluate", str(mission_file), "--runs", "2", "--seed", "9",
                  "--min-success", "0"]) == 0
     err = capsys.readouterr().err
-    assert err.startswith("\r") and err.endswith("\x1b[K\n")
-    # From the start (before any run finished), then after each run; the once-a-second redraw
-    # may repeat a line on a slow machine.
-    lines = list(dict.fromkeys(err[1:-4].split("\x1b[K\r")))
-    assert lines == ["[--------------------] 0/2 done, 0 successes, 0:00 elapsed, ETA —",
-                     "[##########----------] 1/2 done, 1 success, 0:00 elapsed, ETA 0:00",
-                     "[####################] 2/2 done, 1 success, 0:00 elapsed, ETA 0:00"]
+    # a rich bar redrawn in place (cursor movements), not a line per update; its last state
+    # stays on screen
+    assert "\x1b[" in err
+    last = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", err).rstrip().rsplit("\n", 1)[-1]
+    assert f"evaluate {mission_file.stem}" in last and "2/2" in last and "1 success" in last
+    assert "ETA" in last
 
 
 def test_a_crashing_run_is_an_error_not_the_end(mission_file: Path,
