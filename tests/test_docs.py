@@ -176,6 +176,7 @@ def _have(*modules: str) -> bool:
     return all(importlib.util.find_spec(m) is not None for m in modules)
 
 
+@pytest.mark.slow  # a whole mkdocs build: tens of seconds on a busy 2-core machine
 @pytest.mark.skipif(not _have("mkdocs", "material", "mkdocstrings_handlers.python"),
                     reason="needs the docs extra: pip install -e '.[docs]'")
 def test_the_site_builds_with_warnings_as_errors(tmp_path: Path) -> None:

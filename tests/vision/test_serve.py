@@ -22,7 +22,7 @@ import numpy.typing as npt
 import pytest
 
 from marknav.cli import main as cli
-from marknav.cli import serve_camera as cmd_serve_camera
+from marknav.remote import mjpeg_server
 from marknav.remote.mjpeg_server import (
     BOUNDARY,
     CameraStreamer,
@@ -434,7 +434,8 @@ def test_exposed_host_warns_and_interrupt_exits_130(
         def serve_forever(self, poll_interval: float = 0.2) -> None:
             raise KeyboardInterrupt
 
-    monkeypatch.setattr(cmd_serve_camera, "MjpegServer", LoopbackServer)
+    # the command imports the server class when it runs: swap it where it comes from
+    monkeypatch.setattr(mjpeg_server, "MjpegServer", LoopbackServer)
     code = cli.main(["serve-camera", "--camera", str(SMARTIES), "--host", "0.0.0.0"])
     out, err = capsys.readouterr()
     assert code == 130
