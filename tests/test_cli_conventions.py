@@ -110,3 +110,19 @@ def test_python_warnings_become_log_lines(verbosity: int, shown: bool) -> None:
         assert "RuntimeWarning: a library grumbles" in proc.stderr
     else:
         assert proc.stderr == ""
+
+
+def test_ctrl_c_during_a_run_says_interrupted_once(tmp_path: Path,
+                                                   monkeypatch: pytest.MonkeyPatch,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    import marknav.runs.run as run_module
+
+    def interrupted(req: object) -> object:
+        raise KeyboardInterrupt("SIGINT")
+
+    monkeypatch.setattr(run_module, "prepare", lambda simulator: None)
+    monkeypatch.setattr(run_module, "execute", interrupted)
+    code = main(["run", str(SLALOM), "--tree", "none", "--report", str(tmp_path / "r.json")])
+    assert code == 130
+    said = [line for line in capsys.readouterr().err.splitlines() if "interrupted" in line]
+    assert said == ["marknav run: interrupted; wheels stopped; nothing written"]
