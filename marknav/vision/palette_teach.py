@@ -35,6 +35,7 @@ import math
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import cv2
 import numpy as np
@@ -61,6 +62,8 @@ __all__ = [
 
 U8Array = npt.NDArray[np.uint8]
 FloatArray = npt.NDArray[np.float64]
+#: What OpenCV returns (masks, contours): arrays of whatever dtype the call gives.
+Mat = npt.NDArray[Any]
 
 #: Where each colour name sits on OpenCV's hue circle (0..179): the hue of the pure colour
 #: (red 0°, yellow 60°, green 120°, cyan 180°, blue 240°, magenta 300°, halved), orange and the
@@ -245,7 +248,7 @@ def _balanced_hsv(image: U8Array) -> tuple[U8Array, float]:
     return np.asarray(cv2.cvtColor(image, cv2.COLOR_BGR2HSV), np.uint8), grey
 
 
-def _roundness(shape: tuple[int, int], contour: npt.NDArray[np.int32]) -> tuple[float, tuple[
+def _roundness(shape: tuple[int, int], contour: Mat) -> tuple[float, tuple[
         float, float, float, float, float]] | None:
     """(IoU of the blob and its fitted ellipse, (cx, cy, major, minor, angle)) or None."""
     if len(contour) < 5:
@@ -268,12 +271,12 @@ def _roundness(shape: tuple[int, int], contour: npt.NDArray[np.int32]) -> tuple[
     return inter / union, (cx, cy, max(d1, d2) / 2.0, min(d1, d2) / 2.0, angle)
 
 
-def _measure(source: str, hsv: U8Array, contour: npt.NDArray[np.int32], iou: float,
+def _measure(source: str, hsv: U8Array, contour: Mat, iou: float,
              ell: tuple[float, float, float, float, float],
-             keep: tuple[U8Array, int, int] | None, cfg: FinderConfig) -> RoundMark | None:
+             keep: tuple[Mat, int, int] | None, cfg: FinderConfig) -> RoundMark | None:
     cx, cy, major, minor, _angle = ell
     x, y, w, h = cv2.boundingRect(contour)
-    region = np.zeros((h, w), np.uint8)
+    region: Mat = np.zeros((h, w), np.uint8)
     cv2.drawContours(region, [contour], -1, 255, cv2.FILLED, offset=(-x, -y))
     inset = max(1, round(cfg.rim_share * minor))
     core = cv2.erode(region, cv2.getStructuringElement(cv2.MORPH_ELLIPSE,
@@ -283,8 +286,8 @@ def _measure(source: str, hsv: U8Array, contour: npt.NDArray[np.int32], iou: flo
         mine = np.zeros_like(region)
         sub = part[y - ky:y - ky + h, x - kx:x - kx + w]
         mine[:sub.shape[0], :sub.shape[1]] = sub
-        region &= mine * 255
-        core &= region
+        region = cv2.bitwise_and(region, mine * 255)
+        core = cv2.bitwise_and(core, region)
     if np.count_nonzero(core) < 12:
         core = region
     sel = core > 0
@@ -315,7 +318,7 @@ def _hue_peaks(hues: FloatArray, gap: float, min_count: int) -> list[float]:
                           & (near >= min_count))
     peaks: list[float] = []
     for i in cand[np.argsort(-smooth[cand], kind="stable")].tolist():
-        if all(abs(hue_diff(float(i), p)) >= gap for p in peaks):
+        if all(abs(float(hue_diff(float(i), p))) >= gap for p in peaks):
             peaks.append(float(i))
     return peaks
 
@@ -338,7 +341,7 @@ def find_round_marks(image: U8Array, *, source: str = "",
     found: list[RoundMark] = []
     shape = (hsv.shape[0], hsv.shape[1])
 
-    def consider(mask: U8Array, keep: tuple[U8Array, int, int] | None,
+    def consider(mask: Mat, keep: tuple[Mat, int, int] | None,
                  offset: tuple[int, int] = (0, 0)) -> None:
         contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
                                        offset=offset)
@@ -350,17 +353,17 @@ def find_round_marks(image: U8Array, *, source: str = "",
                 continue
             iou, ell = got
             _cx, _cy, major, minor, _ = ell
-            if major < cfg.min_radius_px or minor < cfg.min_axis_ratio * major:
-                continue
-            if iou < cfg.min_roundness:
-                if keep is None:
+            if iou < cfg.min_roundness or minor < cfg.min_axis_ratio * major:
+                if keep is None:  # not one round object: maybe several of different hues
                     split(c)
+                continue
+            if major < cfg.min_radius_px:
                 continue
             mark = _measure(source, hsv, c, iou, ell, keep, cfg)
             if mark is not None:
                 found.append(mark)
 
-    def split(contour: npt.NDArray[np.int32]) -> None:
+    def split(contour: Mat) -> None:
         """A blob that is not round, read once per hue cluster (touching marks)."""
         x, y, w, h = cv2.boundingRect(contour)
         region = np.zeros((h, w), np.uint8)
@@ -376,8 +379,8 @@ def find_round_marks(image: U8Array, *, source: str = "",
             consider(part, (part, x, y), (x, y))
 
     for level in rungs:
-        mask = ((sat >= level).astype(np.uint8) & bright)
-        mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, kernel)
+        mask: Mat = cv2.morphologyEx((sat >= level).astype(np.uint8) & bright,
+                                     cv2.MORPH_OPEN, kernel)
         consider(mask, None)
     return _one_per_object(found)
 
@@ -494,8 +497,9 @@ class Gap:
     ``boundary`` is the last hue of ``below``'s range when the ranges meet (``None`` when free
     hues are left between them). ``margin_below``/``margin_above``: hue units from the nearest
     mark mean hue of each colour to its range's edge on this side — how far a change of light
-    may move a mark's hue before it leaves its colour (into the other one where they meet). ``pixel_overlap``: hue units
-    that both colours' pixel hues (2nd..98th percentile) share (0 if none).
+    may move a mark's hue before it leaves its colour (into the other one where they meet).
+    ``pixel_overlap``: hue units that both colours' pixel hues (2nd..98th percentile) share
+    (0 if none).
     """
 
     below: str
@@ -583,29 +587,29 @@ def propose_palette(marks: Sequence[RoundMark], requests: Sequence[ColourRequest
              for i in range(k if k > 1 else 0)]  # the last pair: round the circle
     boundaries: list[int | None] = []
     for a, b, shift in pairs:
-        boundary = math.floor((mark_ext[a][1] + mark_ext[b][0] + shift) / 2.0)
+        boundary: int = math.floor((mark_ext[a][1] + mark_ext[b][0] + shift) / 2.0)
         if hi_edge[a] >= boundary or lo_edge[b] + shift <= boundary + 1:  # the ranges meet
             hi_edge[a] = min(hi_edge[a], boundary)
             lo_edge[b] = max(lo_edge[b] + shift, boundary + 1) - shift
             boundaries.append(boundary)
         else:
             boundaries.append(None)
-    for (a, b, shift), boundary in zip(pairs, boundaries, strict=True):
+    for (a, b, shift), met in zip(pairs, boundaries, strict=True):
         a_hi, b_lo = mark_ext[a][1], mark_ext[b][0] + shift
         margin_a = hi_edge[a] + 0.5 - a_hi
         margin_b = b_lo - (lo_edge[b] + shift - 0.5)
         overlap = max(0.0, pix_ext[a][1] - (pix_ext[b][0] + shift))
         name_a, name_b = requests[names[a]].name, requests[names[b]].name
-        gaps.append(Gap(name_a, name_b, None if boundary is None else boundary % HUE_MAX,
+        gaps.append(Gap(name_a, name_b, None if met is None else met % HUE_MAX,
                         round(margin_a, 2), round(margin_b, 2), round(overlap, 1)))
-        if boundary is not None and min(margin_a, margin_b) < min_margin:
+        if met is not None and min(margin_a, margin_b) < min_margin:
             how = "overlap" if overlap > 0 else "are close"
             warnings.append(
                 f"{name_a} and {name_b} {how}: their marks' mean hues are only "
                 f"{b_lo - a_hi:.1f} hue units apart ({name_a} up to {_wrap(a_hi):.1f}, "
                 f"{name_b} from {_wrap(b_lo):.1f})"
                 + (f" and their pixels' hues share {overlap:.0f} units" if overlap > 0 else "")
-                + f"; split at {boundary % HUE_MAX}|{(boundary + 1) % HUE_MAX}, a margin of "
+                + f"; split at {met % HUE_MAX}|{(met + 1) % HUE_MAX}, a margin of "
                 f"{min(margin_a, margin_b):.1f} hue units: a change of light will carry one into "
                 "the other (choose marks of more different colours)")
     colours = []
