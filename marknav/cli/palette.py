@@ -51,7 +51,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                    help="report how MISSION's marks.colours separates the marks found")
     p.add_argument("--max-margin", type=int, default=12, metavar="HUE",
                    help="hue units a range may reach past the hues its marks showed, where no "
-                        "other colour is near (default 12)")
+                        "other colour and no other saturated surface of the pictures is "
+                        "(default 12)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=run)
 
@@ -122,11 +123,14 @@ def _detector_agreement(frames: Sequence[_Frame], marks_per_frame: Sequence[Sequ
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from marknav.vision.palette_teach import (
         check_palette,
         find_round_marks,
         parse_colours,
         propose_palette,
+        scene_hues,
         yaml_block,
     )
 
@@ -157,7 +161,10 @@ def run(args: argparse.Namespace) -> int:
     exit_code = 0
     if requests is not None:
         try:
-            proposal = propose_palette(marks, requests, max_margin=args.max_margin)
+            clutter = np.mean([scene_hues(fr.image, ms)
+                               for fr, ms in zip(frames, found, strict=True)], axis=0)
+            proposal = propose_palette(marks, requests, max_margin=args.max_margin,
+                                       clutter=clutter)
         except ValueError as exc:
             raise InputError(f"{exc} (photograph every colour; marks must be round, saturated "
                              "and at least 5 px in radius)", field="--colours") from None

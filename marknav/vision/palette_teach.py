@@ -57,6 +57,7 @@ __all__ = [
     "find_round_marks",
     "parse_colours",
     "propose_palette",
+    "scene_hues",
     "yaml_block",
 ]
 
@@ -85,8 +86,8 @@ CANONICAL_HUES: dict[str, float] = {
 }
 
 #: A non-round blob is read as at most this many hue clusters (touching marks of different
-#: colours: two or three; more is a multicoloured object, not marks).
-_MAX_HUE_PARTS = 4
+#: colours and the floor or wall they touch; more is a multicoloured object, not marks).
+_MAX_HUE_PARTS = 6
 
 _COLOUR_ITEM = re.compile(r"^([A-Za-z][A-Za-z0-9_-]*)(?:=(\d+(?:\.\d+)?))?(?::(left|right))?$")
 
@@ -161,9 +162,10 @@ class FinderConfig:
     val_rel_min: float = 0.35
     #: ... and at least this absolute value (0..255) in a lit scene (the palette default).
     val_min: int = 50
-    #: Pixels of a non-round blob within this many hue units of one of its hue peaks are read
-    #: as one object: touching marks of different colours are ≥ 8 apart (the detector's
-    #: ``split_hue_gap``); shading moves a mark's hue by less.
+    #: A non-round blob whose hue histogram has peaks at least this many hue units apart is
+    #: read once per peak (each pixel going to the nearest peak): touching marks of different
+    #: colours are ≥ 8 apart (the detector's ``split_hue_gap``); shading moves a mark's hue
+    #: by less.
     hue_cluster_gap: float = 8.0
     #: The outer rim of a mark mixes it with its background; its hues are measured this share
     #: of the radius inside its outline (at least 1 px).
@@ -195,6 +197,7 @@ class RoundMark:
     y: float
     radius: float
     axes: tuple[float, float]
+    angle: float
     roundness: float
     hue: float
     hue_spread: float
@@ -268,13 +271,14 @@ def _roundness(shape: tuple[int, int], contour: Mat) -> tuple[float, tuple[
     union = int(np.count_nonzero(blob | ell))
     if union == 0:
         return None
-    return inter / union, (cx, cy, max(d1, d2) / 2.0, min(d1, d2) / 2.0, angle)
+    major_angle = angle if d1 >= d2 else angle + 90.0  # the direction of the major axis
+    return inter / union, (cx, cy, max(d1, d2) / 2.0, min(d1, d2) / 2.0, major_angle)
 
 
 def _measure(source: str, hsv: U8Array, contour: Mat, iou: float,
              ell: tuple[float, float, float, float, float],
              keep: tuple[Mat, int, int] | None, cfg: FinderConfig) -> RoundMark | None:
-    cx, cy, major, minor, _angle = ell
+    cx, cy, major, minor, angle = ell
     x, y, w, h = cv2.boundingRect(contour)
     region: Mat = np.zeros((h, w), np.uint8)
     cv2.drawContours(region, [contour], -1, 255, cv2.FILLED, offset=(-x, -y))
@@ -298,7 +302,8 @@ def _measure(source: str, hsv: U8Array, contour: Mat, iou: float,
     offsets = np.asarray(hue_diff(px[:, 0], mean), np.float64)
     lo, hi = np.percentile(offsets, [2.0, 98.0])
     return RoundMark(source=source, x=float(cx), y=float(cy), radius=float(major),
-                     axes=(float(major), float(minor)), roundness=float(iou), hue=mean,
+                     axes=(float(major), float(minor)), angle=float(angle),
+                     roundness=float(iou), hue=mean,
                      hue_spread=spread, hue_lo=float(lo), hue_hi=float(hi),
                      saturation=float(np.median(px[:, 1])), value=float(np.median(px[:, 2])),
                      pixels=int(sel.sum()), hue_offsets=offsets)
@@ -323,18 +328,39 @@ def _hue_peaks(hues: FloatArray, gap: float, min_count: int) -> list[float]:
     return peaks
 
 
+def _floors(hsv: U8Array, grey: float, cfg: FinderConfig) -> tuple[U8Array, int]:
+    """The pixels bright enough to be a mark (1) and the lowest saturation searched: just above
+    the frame's own grey part (see the module docstring)."""
+    exposure = min(1.0, grey / 100.0) if grey > 0 else 1.0
+    v_floor = int(max(cfg.val_min * exposure, cfg.val_rel_min * grey))
+    bright = (hsv[:, :, 2] >= v_floor).astype(np.uint8)
+    step = max(1, hsv.shape[1] // 160)
+    grey_sat = float(np.percentile(hsv[::step, ::step, 1], 40))
+    return bright, int(min(160, max(60, grey_sat + 25)))
+
+
+def scene_hues(image: U8Array, marks: Sequence[RoundMark],
+               config: FinderConfig = FinderConfig()) -> FloatArray:
+    """Share of the frame's pixels at each hue (180 bins) that are as saturated and bright as
+    a mark could be but lie outside every mark found (floors, walls, posters): the hues a
+    palette range should not reach into."""
+    hsv, grey = _balanced_hsv(image)
+    bright, s0 = _floors(hsv, grey, config)
+    mask = ((hsv[:, :, 1] >= s0).astype(np.uint8) & bright) * 255
+    for m in marks:  # the marks themselves, with their rim
+        cv2.ellipse(mask, ((m.x, m.y), (2 * m.axes[0] + 6, 2 * m.axes[1] + 6), m.angle), 0,
+                    cv2.FILLED)
+    hist = cv2.calcHist([hsv], [0], mask, [HUE_MAX], [0, HUE_MAX]).ravel()
+    return np.asarray(hist, np.float64) / float(mask.size)
+
+
 def find_round_marks(image: U8Array, *, source: str = "",
                      config: FinderConfig = FinderConfig()) -> list[RoundMark]:
     """The saturated round objects of one BGR frame, largest first (see the module docstring)."""
     cfg = config
     hsv, grey = _balanced_hsv(image)
-    sat, val = hsv[:, :, 1], hsv[:, :, 2]
-    exposure = min(1.0, grey / 100.0) if grey > 0 else 1.0
-    v_floor = int(max(cfg.val_min * exposure, cfg.val_rel_min * grey))
-    bright = (val >= v_floor).astype(np.uint8)
-    step = max(1, image.shape[1] // 160)
-    grey_sat = float(np.percentile(sat[::step, ::step], 40))
-    s0 = int(min(160, max(60, grey_sat + 25)))
+    sat = hsv[:, :, 1]
+    bright, s0 = _floors(hsv, grey, cfg)
     rungs = list(range(s0, cfg.sat_top + 1, cfg.sat_step)) or [s0]
     min_area = math.pi * cfg.min_radius_px ** 2 * cfg.min_axis_ratio
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3))
@@ -372,9 +398,15 @@ def find_round_marks(image: U8Array, *, source: str = "",
         hue_box = hsv[y:y + h, x:x + w, 0].astype(np.float64)
         peaks = _hue_peaks(hue_box[sel], cfg.hue_cluster_gap,
                            int(math.pi * cfg.min_radius_px ** 2))
-        for p in peaks[:_MAX_HUE_PARTS]:
-            near = np.abs(np.asarray(hue_diff(hue_box, p))) <= cfg.hue_cluster_gap / 2.0
-            part = (near & sel).astype(np.uint8)
+        if len(peaks) < 2:
+            return
+        peaks = peaks[:_MAX_HUE_PARTS]
+        # each pixel goes to the hue peak nearest it: a pale mark's hues are noisy (±6 units
+        # at S ≈ 90), a window around its peak would cut it to pieces
+        dist = np.stack([np.abs(np.asarray(hue_diff(hue_box, p))) for p in peaks])
+        nearest = np.argmin(dist, axis=0)
+        for i in range(len(peaks)):
+            part = ((nearest == i) & sel).astype(np.uint8)
             part = cv2.morphologyEx(part, cv2.MORPH_OPEN, kernel)
             consider(part, (part, x, y), (x, y))
 
@@ -537,6 +569,20 @@ def _assign_names(means: list[float], requests: Sequence[ColourRequest]) -> list
     return list(best[1])
 
 
+def _runs(hues: list[int]) -> str:
+    """``[3, 4, 5, 9]`` → ``"3..5, 9"``."""
+    parts: list[str] = []
+    start = prev = hues[0]
+    for h in [*hues[1:], None]:
+        if h is not None and h == prev + 1:
+            prev = h
+            continue
+        parts.append(f"{start}..{prev}" if prev != start else f"{start}")
+        if h is not None:
+            start = prev = h
+    return ", ".join(parts)
+
+
 def _wrap(h: float) -> float:
     """``h`` in [0, 180), with ``-0.0`` and rounding up to 180 mapped to 0."""
     out = round(h, 6) % HUE_MAX
@@ -544,6 +590,7 @@ def _wrap(h: float) -> float:
 
 
 def propose_palette(marks: Sequence[RoundMark], requests: Sequence[ColourRequest], *,
+                    clutter: FloatArray | None = None, clutter_share: float = 0.002,
                     max_margin: int = 12, min_margin: float = 3.0,
                     sat_share: float = 0.6, sat_default: int = 100,
                     val_default: int = 50) -> PaletteProposal:
@@ -554,7 +601,11 @@ def propose_palette(marks: Sequence[RoundMark], requests: Sequence[ColourRequest
     same margin. Away from a neighbour, a range covers its marks' pixel hues and reaches
     ``max_margin`` (hue units) past them: room for light the photos did not see (after white
     balance, daylight against a warm lamp moves a printed colour by a few units); wider would
-    only let clutter of other hues into the detector's search. Two colours whose margin is below
+    only let clutter of other hues into the detector's search. ``clutter`` (from
+    :func:`scene_hues`, averaged over the frames): a range stops before the first hue at which
+    other saturated surfaces of the photos cover ``clutter_share`` of a frame (0.002: a disc
+    of 14 px radius at 640×480, a small mark), and a colour whose own marks' hues are that
+    common elsewhere in the photos gets a warning. Two colours whose margin is below
     ``min_margin`` (hue units) get a warning: a change of light can carry one into the other.
     ``sat_min`` is ``sat_share`` of the palest mark's median saturation (distance blur and glare
     lower it), never above ``sat_default`` (what the detector is tuned with), and ``val_min``
@@ -579,10 +630,31 @@ def propose_palette(marks: Sequence[RoundMark], requests: Sequence[ColourRequest
         mark_ext[g] = (means[g] + min(offs), means[g] + max(offs))
         pix_ext[g] = (means[g] + min(o + m.hue_lo for o, m in zip(offs, members[g], strict=True)),
                       means[g] + max(o + m.hue_hi for o, m in zip(offs, members[g], strict=True)))
-    lo_edge = {g: math.floor(pix_ext[g][0]) - max_margin for g in range(k)}
-    hi_edge = {g: math.ceil(pix_ext[g][1]) + max_margin for g in range(k)}
+    busy = (np.zeros(HUE_MAX, bool) if clutter is None
+            else np.asarray(clutter, np.float64) >= clutter_share)
+    lo_edge: dict[int, int] = {}
+    hi_edge: dict[int, int] = {}
     gaps: list[Gap] = []
     warnings: list[str] = []
+    for g in range(k):
+        lo, hi = math.floor(pix_ext[g][0]), math.ceil(pix_ext[g][1])
+        # the hues the marks are read as (their mean hues, give or take min_margin)
+        core = range(math.floor(mark_ext[g][0] - min_margin),
+                     math.ceil(mark_ext[g][1] + min_margin) + 1)
+        own = [h % HUE_MAX for h in core if busy[h % HUE_MAX]]
+        if own:
+            warnings.append(
+                f"{requests[names[g]].name}: other saturated surfaces in the photos have its "
+                f"marks' hues ({_runs(own)}); the detector may take them, or join them to "
+                "its marks (a mark against a floor or wall of its own hue)")
+        reach = 0
+        while reach < max_margin and not busy[(hi + reach + 1) % HUE_MAX]:
+            reach += 1
+        hi_edge[g] = hi + reach
+        reach = 0
+        while reach < max_margin and not busy[(lo - reach - 1) % HUE_MAX]:
+            reach += 1
+        lo_edge[g] = lo - reach
     pairs = [(order[i], order[(i + 1) % k], HUE_MAX if i == k - 1 else 0)
              for i in range(k if k > 1 else 0)]  # the last pair: round the circle
     boundaries: list[int | None] = []
