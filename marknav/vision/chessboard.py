@@ -200,7 +200,7 @@ def plot_calibration(cal: CameraCalibration, out: str | Path) -> None:
                      np.ones(len(ideal))], axis=1)
     seen, _ = cv2.projectPoints(norm, np.zeros(3), np.zeros(3), i.matrix, i.coefficients)
     seen = seen.reshape(-1, 2)
-    fig, ax = plt.subplots(figsize=(7.0, 5.6), dpi=100)
+    fig, ax = plt.subplots(figsize=(9.6, 5.6), dpi=100)
     ax.quiver(ideal[:, 0], ideal[:, 1], seen[:, 0] - ideal[:, 0], seen[:, 1] - ideal[:, 1],
               angles="xy", scale_units="xy", scale=1.0, color="0.4", width=0.002,
               label="distortion (ideal → imaged)")
@@ -212,7 +212,11 @@ def plot_calibration(cal: CameraCalibration, out: str | Path) -> None:
     ax.set_xlim(0, w)
     ax.set_ylim(h, 0)
     ax.set_aspect("equal")
+    ax.set_xlabel("image column u [px]")
+    ax.set_ylabel("image row v [px]")
     ax.set_title(f"fx {i.fx:.1f}  fy {i.fy:.1f}  cx {i.cx:.1f}  cy {i.cy:.1f}  "
-                 f"RMS {cal.rms_px:.3f} px")
-    ax.legend(fontsize=6, loc="upper right", ncol=2)
+                 f"RMS {cal.rms_px:.3f} px", fontsize=10)
+    # beside the image, never on the corners or the arrows; per-view RMS in px
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), ncol=1,
+              title="corners per view (RMS)", title_fontsize=7, frameon=False)
     save_figure(fig, out)
