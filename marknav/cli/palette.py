@@ -213,11 +213,16 @@ def _split(labels: list[str], found: Sequence[Sequence[Any]]) -> list[list[str]]
     return out
 
 
+def _hue(h: float) -> str:
+    """A hue for the eye: one decimal, 179.97 shown as 0.0."""
+    return f"{round(h, 1) % 180:.1f}"
+
+
 def _colour_dict(c: Any) -> dict[str, Any]:
     return {"name": c.name, "hue": [c.hue_lo, c.hue_hi], "marks": c.marks,
             "mean_hue": round(c.mean_hue, 2), "mark_hues": [round(h, 2) for h in c.mark_hues],
             "pixel_hues": [round(h, 1) for h in c.pixel_hues], "sat_min": c.sat_min,
-            "val_min": c.val_min, "side": c.side}
+            "val_min": c.val_min, "side": c.side, "margin_stopped_at": list(c.stopped_at)}
 
 
 def _gap_dict(g: Any) -> dict[str, Any]:
@@ -234,7 +239,7 @@ def _marks_text(frames: Sequence[_Frame], found: Sequence[Sequence[RoundMark]],
         for m, name in zip(ms, names, strict=True):
             lo, hi = round(m.hue + m.hue_lo) % 180, round(m.hue + m.hue_hi) % 180
             out.append(f"  {name:<8} x={m.x:7.1f} y={m.y:7.1f} r={m.radius:6.1f}  hue "
-                       f"{m.hue:5.1f} (pixels {lo:.0f}..{hi:.0f})  S {m.saturation:3.0f} "
+                       f"{_hue(m.hue):>5} (pixels {lo:.0f}..{hi:.0f})  S {m.saturation:3.0f} "
                        f"V {m.value:3.0f}  round {m.roundness:.2f}")
     return out
 
@@ -242,10 +247,13 @@ def _marks_text(frames: Sequence[_Frame], found: Sequence[Sequence[RoundMark]],
 def _proposal_text(proposal: Any, agreement: dict[str, Any]) -> list[str]:
     out = ["colours (hue in OpenCV units 0..179; a range may wrap, 170..10):"]
     for c in proposal.colours:
+        stop = (f"  (margin stopped by other surfaces at hue "
+                f"{', '.join(str(h) for h in c.stopped_at)})" if c.stopped_at else "")
         out.append(f"  {c.name:<8} {c.marks:3d} mark{'s' if c.marks != 1 else ' '}  mean hue "
-                   f"{c.mean_hue:5.1f}  marks {c.mark_hues[0]:.1f}..{c.mark_hues[1]:.1f}  "
-                   f"pixels {c.pixel_hues[0]:.0f}..{c.pixel_hues[1]:.0f}  -> range "
-                   f"{c.hue_lo}..{c.hue_hi}  sat_min {c.sat_min}  val_min {c.val_min}")
+                   f"{_hue(c.mean_hue)}  marks {_hue(c.mark_hues[0])}..{_hue(c.mark_hues[1])}  "
+                   f"pixels {round(c.pixel_hues[0]) % 180}..{round(c.pixel_hues[1]) % 180}  "
+                   f"-> range {c.hue_lo}..{c.hue_hi}  sat_min {c.sat_min}  val_min "
+                   f"{c.val_min}{stop}")
     if proposal.gaps:
         out.append("between colours (margins: hue units from the nearest mark's mean hue to its "
                    "range's edge):")

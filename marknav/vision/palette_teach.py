@@ -516,6 +516,8 @@ class ProposedColour:
     sat_min: int
     val_min: int
     side: str | None = None
+    #: Hues where other saturated surfaces of the pictures stopped the range's margin.
+    stopped_at: tuple[int, ...] = ()
 
     def range(self) -> ColourRange:
         return ColourRange(self.name, self.hue_lo, self.hue_hi, sat_min=self.sat_min,
@@ -634,6 +636,7 @@ def propose_palette(marks: Sequence[RoundMark], requests: Sequence[ColourRequest
             else np.asarray(clutter, np.float64) >= clutter_share)
     lo_edge: dict[int, int] = {}
     hi_edge: dict[int, int] = {}
+    stopped: dict[int, list[int]] = {g: [] for g in range(k)}
     gaps: list[Gap] = []
     warnings: list[str] = []
     for g in range(k):
@@ -651,10 +654,14 @@ def propose_palette(marks: Sequence[RoundMark], requests: Sequence[ColourRequest
         while reach < max_margin and not busy[(hi + reach + 1) % HUE_MAX]:
             reach += 1
         hi_edge[g] = hi + reach
+        if reach < max_margin:
+            stopped[g].append((hi + reach + 1) % HUE_MAX)
         reach = 0
         while reach < max_margin and not busy[(lo - reach - 1) % HUE_MAX]:
             reach += 1
         lo_edge[g] = lo - reach
+        if reach < max_margin:
+            stopped[g].append((lo - reach - 1) % HUE_MAX)
     pairs = [(order[i], order[(i + 1) % k], HUE_MAX if i == k - 1 else 0)
              for i in range(k if k > 1 else 0)]  # the last pair: round the circle
     boundaries: list[int | None] = []
@@ -698,7 +705,8 @@ def propose_palette(marks: Sequence[RoundMark], requests: Sequence[ColourRequest
             mark_hues=(_wrap(mark_ext[g][0]), _wrap(mark_ext[g][1])),
             pixel_hues=(_wrap(pix_ext[g][0]), _wrap(pix_ext[g][1])), marks=len(members[g]),
             sat_min=int(max(1, min(sat_default, sat_share * sat))),
-            val_min=int(max(1, min(val_default, sat_share * val))), side=req.side))
+            val_min=int(max(1, min(val_default, sat_share * val))), side=req.side,
+            stopped_at=tuple(stopped[g])))
     colours.sort(key=lambda c: [r.name for r in requests].index(c.name))
     labels = tuple(requests[names[g]].name for g in groups)
     return PaletteProposal(tuple(colours), tuple(gaps), tuple(warnings), labels)
