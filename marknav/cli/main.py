@@ -27,6 +27,7 @@ from marknav.cli import (
     detect,
     evaluate,
     examples,
+    palette,
     random_mission,
     replay,
     run,
@@ -44,8 +45,9 @@ log = logging.getLogger(__name__)
 
 #: The modules that each register one sub-command, in the order ``--help`` shows them.
 COMMANDS: tuple[ModuleType, ...] = (
-    run, validate, tree, evaluate, replay, examples, tune, random_mission, bench, detect, calibrate,
-    calibrate_camera, sim_robot, schema, serve_camera, serve_robot, completion,
+    run, validate, tree, evaluate, replay, examples, tune, random_mission, bench, detect,
+    palette, calibrate, calibrate_camera, sim_robot, schema, serve_camera, serve_robot,
+    completion,
 )
 
 
