@@ -173,7 +173,7 @@ def test_entry_point_of_the_installed_package(tmp_path: Path) -> None:
     for argv, expect in (
         (["validate", str(mission)], f"{mission}: ok (route: red → green, 2 waypoints)"),
         (["validate", str(named_too)], f"{named_too}: ok (route: red → green, 2 waypoints)"),
-        (["tree", str(mission)], "--> Dance after green"),
+        (["tree", str(mission)], " Dance after green\n"),  # the plugin node in the drawn tree
         (["schema"], '"const": "Wiggle"'),
     ):
         done = subprocess.run([*marknav, *argv], env=env, capture_output=True, text=True,
