@@ -137,9 +137,9 @@ class SeenMark:
 
 def cut_by_image_side(seen: SeenMark) -> bool:
     """Whether the mark's disc reaches the left or right edge of the image. The detector then
-    fits only the part in view, and its radius, hence its range, can be far off (random mission
-    36: a mark leaving the frame during its bypass, seen 290 mm nearer than 30 whole sightings
-    had it; mission 91: a mark entering the frame after a bypass, 1.07 m for 1.57 m)."""
+    fits only the part in view, and its radius, hence its range, can be far off (a mark leaving
+    the frame during its bypass reads a few hundred millimetres near; one entering the frame
+    after a bypass can read a third short)."""
     return seen.x_px - seen.radius_px < 2.0 or seen.x_px + seen.radius_px > seen.image_width - 3.0
 
 

@@ -215,8 +215,8 @@ def associate(
     ``pose`` and the memory (``known``), the target's own mark is remembered out of view and
     clearly nearer (by :data:`MEMORY_PREFERENCE_MM`) than that one: the target left the view
     (an approach from far off its axis, a turn) and a mark of its colour farther down the
-    course is no sighting of it (random mission 190: a mark 0.9 m away, 33° right, left the
-    view and the approach took one 4.9 m ahead, passing the near one on the wrong side).
+    course is no sighting of it (taking it would pass the near mark, unseen, on whichever side
+    the approach to the far one happens to leave it).
     Locked (bypass started): the mark of that colour nearest to the target's world estimate,
     if within the gate.
     Remembered (chosen from the memory, out of view): the same by position, within

@@ -99,8 +99,8 @@ def resample_path(
     """(times, positions) keeping a point only once the robot moved ``step_mm`` from the last
     kept one. The last point too: a path that ends in a turn on the spot ends where the turn
     began (a last few millimetres of wobble after a search turn are not a direction of travel:
-    kept, they made a corner whose "way out" put every mark ahead of the robot behind it —
-    slalom seed 55's green mark, 950 mm ahead, "passed")."""
+    kept, they made a corner whose "way out" put every mark ahead of the robot behind it, so a
+    mark still ahead counted as passed)."""
     ts = np.asarray(t, dtype=float)
     p = np.asarray(xy, dtype=float).reshape(-1, 2)
     if len(p) == 0:

@@ -224,8 +224,8 @@ class RangeLawLearner:
     observable: a mark approached from 2 m to 1 m pins the law's slope over that whole metre.
     Small marks reach ``min_radius_px`` only near the bypass distance, so an approach to them
     spans less: once some mark has ``min_scale_samples`` sightings across ``min_scale_spread``
-    of ln r, the scale alone is fitted, the exponent held (random mission 531: marks of
-    68.6 mm radius, a law 25 % short, no step in 101 s before, a collision).
+    of ln r, the scale alone is fitted, the exponent held (otherwise small marks, whose radii
+    spread too little to pin the slope, leave a wrong law uncorrected until the bypass).
 
     Args:
         prior: the law to start from (the mission's, or the pinhole law of the intrinsics).

@@ -117,9 +117,9 @@ def tangential_radius(outline: FloatArray) -> float:
     so undistorting stretches the radial axis that much more, and with it any error of the
     detector there. A small mark the detector finds rounder than the lens made it (1 px on
     20 px is within its noise) then came out with a radial axis several per cent too long,
-    which, as the major axis, was taken for the radius: such marks read near (issue 13's
-    long-course seed 5, blue mark at x = 91 px: 20.6 × 20.1 px detected, 22.5 px undistorted,
-    21.6 px true; along the stretch 21.35 px)."""
+    which, as the major axis, was taken for the radius: such marks read near (a 21.6 px mark
+    near the image edge: 20.6 × 20.1 px detected, 22.5 px undistorted as a whole, 21.35 px
+    along the stretch)."""
     n = len(outline)
     return 0.5 * float(np.hypot(*(outline[0] - outline[n // 2])))
 
