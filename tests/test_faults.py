@@ -713,3 +713,131 @@ def test_7_a_verdict_reached_in_the_tick_a_signal_lands_in_stands(
     assert records[-1]["kind"] == "end" and records[-1]["outcome"] == "failed"
     assert records[-1]["ticks"] == report["ticks"] == max(
         r["n"] for r in records if r["kind"] == "tick") + 1
+
+
+# --- issue 31: what a fault sweep broke (B1-B8, serve-robot under junk, whole log records) ---
+
+LONG_NAME = "w" * 300 + ".yaml"  # longer than any one file name the OS takes (255 bytes)
+
+
+def _slalom_with(tmp_path: Path, old: str, new: str, file: str = "m.yaml") -> Path:
+    text = SLALOM.read_text(encoding="utf-8").replace(
+        "world: worlds/", f"world: {SLALOM.parent}/worlds/")
+    assert old in text
+    path = tmp_path / file
+    path.write_text(text.replace(old, new), encoding="utf-8")
+    return path
+
+
+def _run_main(argv: list[str], cwd: Path) -> tuple[int, str]:
+    """``main(argv)`` in ``cwd``: the exit code (argparse's too) and stderr."""
+    import contextlib
+    import io
+
+    err = io.StringIO()
+    old = os.getcwd()
+    os.chdir(cwd)
+    try:
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            try:
+                code = main(argv)
+            except SystemExit as exc:
+                code = int(exc.code or 0)
+    finally:
+        os.chdir(old)
+    return code, err.getvalue()
+
+
+@pytest.mark.parametrize("command", [
+    ["validate"], ["tree"], ["run", "--tree", "none", "--max-time", "1"],
+])
+def test_b1_a_missions_world_name_too_long_is_exit_2_at_its_line(tmp_path: Path,
+                                                                 command: list[str]) -> None:
+    mission = _slalom_with(tmp_path, "world: " + str(SLALOM.parent) + "/worlds/slalom-world.yaml",
+                           "world: " + LONG_NAME)
+    code, err = _run_main([command[0], str(mission), *command[1:]], tmp_path)
+    assert code == 2, err
+    assert "Traceback" not in err and "OSError" not in err
+    line = next(i for i, ln in enumerate(mission.read_text().splitlines(), 1)
+                if ln.startswith("  world:"))
+    assert f"{mission}:{line}:" in err and "sim.world" in err, err
+    assert "name too long" in err.lower()
+
+
+@pytest.mark.parametrize("argv", [
+    ["run", str(SLALOM), "--world", LONG_NAME, "--tree", "none"],
+    ["validate", str(SLALOM), "--world", LONG_NAME],
+    ["replay", LONG_NAME, "--at", "0"],
+    ["view", LONG_NAME + ".rrd", "--save", "x.rrd"],
+    ["validate", LONG_NAME],
+    ["detect", LONG_NAME],
+    ["calibrate", LONG_NAME],
+    ["calibrate-camera", LONG_NAME, LONG_NAME + "1", LONG_NAME + "2", "--board", "9x6",
+     "--square-mm", "25"],
+    ["serve-camera", "--camera", LONG_NAME, "--port", "0"],
+])
+def test_b2_any_path_too_long_is_exit_2_naming_it(tmp_path: Path, argv: list[str]) -> None:
+    code, err = _run_main(argv, tmp_path)
+    assert code == 2, err
+    assert "Traceback" not in err and "OSError" not in err
+    assert LONG_NAME[:40] in err and "name too long" in err.lower(), err
+
+
+def test_b3_a_list_where_a_name_belongs_is_exit_2_at_its_line(tmp_path: Path) -> None:
+    """``robot: {model: [create2]}`` without ``wheel_base_mm``: the model was used as a dict key
+    before its type was checked (TypeError: unhashable type: 'list')."""
+    mission = _slalom_with(tmp_path, "  model: create2\n  wheel_base_mm: 235\n",
+                           "  model: [create2]\n")
+    for command in (["validate"], ["tree"], ["run", "--tree", "none", "--max-time", "1"],
+                    ["evaluate", "--runs", "1", "--jobs", "1"]):
+        code, err = _run_main([command[0], str(mission), *command[1:]], tmp_path)
+        assert code == 2, (command, err)
+        assert "Traceback" not in err and "TypeError" not in err
+        assert f"{mission}:21:" in err and "robot.model" in err, err
+
+
+def _fifo(tmp_path: Path, name: str) -> Path:
+    path = tmp_path / name
+    os.mkfifo(path)
+    return path
+
+
+def test_b4_a_fifo_as_the_camera_is_refused_at_once(robot: PtyServer, tmp_path: Path) -> None:
+    """A FIFO with no writer blocked ``run`` in OpenCV's open() (signals could not end it)."""
+    fifo = _fifo(tmp_path, "fifo.avi")
+    t0 = time.monotonic()
+    proc = marknav("run", str(hardware_mission(tmp_path)), "--robot", robot.path,
+                   "--camera", str(fifo), "--report", str(tmp_path / "r.json"), "--tree", "none",
+                   cwd=tmp_path, timeout=60)
+    assert time.monotonic() - t0 < 30
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert f"{fifo}: is a pipe (FIFO)" in proc.stderr
+    assert robot.bytes_in == 0  # refused before the robot was opened
+
+
+def test_b4_serve_camera_refuses_a_fifo(tmp_path: Path) -> None:
+    fifo = _fifo(tmp_path, "fifo.avi")
+    proc = marknav("serve-camera", "--camera", str(fifo), "--port", "0", cwd=tmp_path,
+                   timeout=60)
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert f"{fifo}: is a pipe (FIFO)" in proc.stderr
+
+
+@pytest.mark.parametrize("what", ["world", "replay", "images", "table"])
+def test_b4_no_path_opens_a_fifo(tmp_path: Path, what: str) -> None:
+    """Every file marknav reads goes through one reader that refuses FIFOs before opening."""
+    if what == "world":
+        argv = ["run", str(SLALOM), "--world", str(_fifo(tmp_path, "w.yaml")), "--tree", "none"]
+    elif what == "replay":
+        argv = ["replay", str(_fifo(tmp_path, "r.events.jsonl")), "--at", "0"]
+    elif what == "images":
+        argv = ["calibrate-camera", *(str(_fifo(tmp_path, f"board{i}.png")) for i in range(3)),
+                "--board", "9x6", "--square-mm", "25"]
+    else:
+        argv = ["calibrate", str(_fifo(tmp_path, "t.csv"))]
+    proc = marknav(*argv, cwd=tmp_path, timeout=60)
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert "is a pipe (FIFO)" in proc.stderr

@@ -26,6 +26,7 @@ from types import ModuleType
 from pydantic import ValidationError
 
 from marknav.errors import InputError, InputErrors
+from marknav.inputfile import stat_path
 from marknav.missions.overrides import Override, apply_overrides, relabel
 from marknav.missions.schema import Marks, Mission, Sim, load_mission
 from marknav.vision.palette import ColourRange
@@ -150,7 +151,11 @@ def _world_of_invalid_mission(
 def _world_problems(
     marks: Marks, route: Sequence[str], world_path: Path, where: tuple[str, ...], locate: Locate
 ) -> list[InputError]:
-    if not world_path.exists():  # anything else that is not a world file: the loader says what
+    try:
+        found = stat_path(world_path, field=None if where else "--world") is not None
+    except InputError as exc:  # a name too long, a loop of links: at the key that named it
+        return [locate(where, f"{exc.message}: {world_path}") if where else exc]
+    if not found:  # anything else that is not a world file: the loader says what
         if where:
             return [locate(where, f"no such world file: {world_path}")]
         return [InputError("no such file", file=str(world_path))]

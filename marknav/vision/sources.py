@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import glob
 import logging
+import stat
 import threading
 import time
 from dataclasses import dataclass
@@ -39,6 +40,7 @@ import numpy.typing as npt
 
 from marknav.clock import Clock, MonotonicClock
 from marknav.errors import InputError
+from marknav.inputfile import check_regular_file, stat_path
 from marknav.vision import imagefile
 
 log = logging.getLogger(__name__)
@@ -130,6 +132,9 @@ class VideoFileSource:
 
     def __init__(self, path: str, *, clock: Clock | None = None) -> None:
         self.name = path
+        # OpenCV opens by name and blocks for ever in open() on a FIFO with no writer: only a
+        # regular file reaches it (checked without blocking, like every file marknav reads).
+        check_regular_file(path, what="a video file")
         cap = cv2.VideoCapture(path)
         if not cap.isOpened():
             cap.release()
@@ -331,7 +336,7 @@ def open_source(spec: str, *, clock: Clock | None = None,
     if spec.isdigit():
         return LiveCaptureSource(spec, int(spec), clock=clock, timeout_s=timeout_s)
     if spec.startswith("/dev/video"):
-        if not Path(spec).exists():
+        if stat_path(spec, field="--camera") is None:
             raise InputError("no such camera device", file=spec)
         return LiveCaptureSource(spec, spec, clock=clock, timeout_s=timeout_s)
     if spec.lower().startswith(("http://", "https://")):
@@ -340,15 +345,16 @@ def open_source(spec: str, *, clock: Clock | None = None,
         return open_http_source(spec, clock=clock, timeout_s=timeout_s)
     if spec.lower().startswith(STREAM_SCHEMES):
         return LiveCaptureSource(spec, spec, clock=clock, timeout_s=timeout_s)
-    path = Path(spec)
-    if path.is_dir():
-        paths = sorted(str(p) for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+    st = stat_path(spec, field="--camera")
+    if st is not None and stat.S_ISDIR(st.st_mode):
+        paths = sorted(str(p) for p in Path(spec).iterdir()
+                       if p.suffix.lower() in IMAGE_SUFFIXES)
         return ImageFolderSource(spec, paths, clock=clock)
     if any(ch in spec for ch in "*?["):
         paths = sorted(p for p in glob.glob(spec) if Path(p).suffix.lower() in IMAGE_SUFFIXES)
         return ImageFolderSource(spec, paths, clock=clock)
-    if not path.exists():
+    if st is None:
         raise InputError("no such file, directory or camera", file=spec)
-    if path.suffix.lower() in IMAGE_SUFFIXES:
+    if Path(spec).suffix.lower() in IMAGE_SUFFIXES:
         return StillImageSource(spec, clock=clock)
     return VideoFileSource(spec, clock=clock)
