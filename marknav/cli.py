@@ -58,8 +58,14 @@ def build_parser() -> argparse.ArgumentParser:
              "the libraries' (py_trees, transitions) too"
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name in COMMANDS:
-        importlib.import_module(name).register(sub)
+    from marknav import signals
+
+    # Importing the commands loads the heavy libraries (≈ 1 s): a signal meanwhile is raised
+    # once they are in. Raised inside an extension's import it can come out as that library's
+    # own error (pydantic-core turns it into a PanicException) instead of KeyboardInterrupt.
+    with signals.deferred():
+        for name in COMMANDS:
+            importlib.import_module(name).register(sub)
     return parser
 
 
@@ -97,13 +103,24 @@ def main(argv: Sequence[str] | None = None, *, exiting: bool = False) -> int:
     except KeyboardInterrupt:  # before a command started (importing, parsing)
         print("marknav: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except BaseException as exc:
+        if signals.signalled() is None or isinstance(exc, SystemExit):
+            raise
+        # A library that caught the signal's KeyboardInterrupt mid-way and raised its own
+        # error instead (an extension module's import): the signal is what happened.
+        log.debug("%s after %s", type(exc).__name__, signals.signalled(), exc_info=exc)
+        print("marknav: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     finally:
         signals.uninstall(exiting=exiting)
 
 
 def entry() -> None:
-    """The ``marknav`` console script and ``python -m marknav``."""
-    sys.exit(main(exiting=True))
+    """The ``marknav`` console script and ``python -m marknav`` (:func:`marknav.__main__.entry`:
+    the signal policy is installed before this module is imported)."""
+    from marknav.__main__ import entry as start
+
+    start()
 
 
 def _main(argv: Sequence[str] | None) -> int:

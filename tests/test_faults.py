@@ -841,3 +841,137 @@ def test_b4_no_path_opens_a_fifo(tmp_path: Path, what: str) -> None:
     assert proc.returncode == 2, proc.stderr
     assert "Traceback" not in proc.stderr
     assert "is a pipe (FIFO)" in proc.stderr
+
+
+@pytest.mark.parametrize(("sig", "delay"), [
+    (signal.SIGINT, 0.0), (signal.SIGINT, 0.002), (signal.SIGINT, 0.01), (signal.SIGINT, 0.03),
+    (signal.SIGINT, 0.1), (signal.SIGTERM, 0.0), (signal.SIGTERM, 0.05),
+])
+def test_b6_a_signal_in_the_first_tenth_of_a_second_exits_130(tmp_path: Path, sig: int,
+                                                              delay: float) -> None:
+    """From marknav's first imports on (here: argparse, which only the command line needs), a
+    signal exits 130 without a traceback. Before, the command line's own imports (argparse,
+    logging: ≈ 10 ms) ran before any handler: a KeyboardInterrupt traceback, exit 1 or -2, and
+    SIGTERM killed the process. (The interpreter's own start-up before the first marknav line,
+    ≈ 15 ms here, is out of marknav's reach.)"""
+    proc = subprocess.Popen([sys.executable, "-X", "importtime", "-m", "marknav", "run",
+                             str(SLALOM), "--tree", "none", "--max-time", "1",
+                             "--report", str(tmp_path / "r.json")], cwd=tmp_path, env=ENV,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert proc.stderr is not None
+    seen = []
+    for line in proc.stderr:  # -X importtime: one line per finished import
+        seen.append(line)
+        if line.rstrip().endswith(" argparse"):
+            time.sleep(delay)
+            proc.send_signal(sig)
+            break
+    code, _out, err = finish(proc, 60)
+    assert code == 130, "".join(seen[-5:]) + err
+    assert "Traceback" not in err and "Exception" not in err, err
+    assert "interrupted" in err
+
+
+@pytest.mark.parametrize(("target", "when"), [
+    ("check_build", "while checking the mission"),  # building the tree
+    ("check_world", "while checking the mission"),  # loading the world
+    ("_request", "while checking the mission"),  # choosing the run folder
+    ("execute", "while starting"),  # the run's first step, before its own files
+])
+def test_b7_a_signal_once_the_mission_was_read_leaves_a_report_and_a_log(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path, target: str, when: str) -> None:
+    """The mission file is read; a SIGINT lands while it is being checked (1.9–2.3 s into a
+    real run): exit 130, and the report and the event log say aborted, interrupted."""
+    import marknav.missions.checks as checks
+    import marknav.runs.cmd_run as cmd_run
+    import marknav.runs.run as runmod
+
+    module = {"check_build": checks, "check_world": checks, "_request": cmd_run,
+              "execute": runmod}[target]
+    original = getattr(module, target)
+
+    def interrupted(*args: Any, **kwargs: Any) -> Any:
+        os.kill(os.getpid(), signal.SIGINT)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(module, target, interrupted)
+    if target == "execute":
+        monkeypatch.setattr(cmd_run, "execute", interrupted, raising=False)
+    monkeypatch.chdir(tmp_path)
+    code, err = _run_main(["run", str(SLALOM), "--tree", "none"], tmp_path)
+    assert code == 130, err
+    assert "Traceback" not in err
+    folders = list((tmp_path / "runs").iterdir())
+    assert len(folders) == 1, folders
+    report = json.loads((folders[0] / "report.json").read_text())
+    assert report["outcome"] == "aborted", report
+    assert report["reason"] == f"interrupted (SIGINT) {when}"
+    records = [json.loads(line) for line in
+               (folders[0] / "report.events.jsonl").read_text().splitlines()]
+    assert records[-1]["kind"] == "end" and records[-1]["reason"] == report["reason"]
+    assert f"interrupted {when}" in err
+    assert f"report: runs/{folders[0].name}/report.json" in err
+
+
+def test_b8_a_signal_during_the_final_write_keeps_the_outcome_and_exits_130(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """The run ended (time limit); a SIGTERM lands while the report is being written: the
+    report is written whole with the run's outcome, the log ends with it, exit 130."""
+    from marknav.runs.report import RunReport
+
+    original = RunReport.write
+
+    def write(self: RunReport, path: Any) -> Any:
+        os.kill(os.getpid(), signal.SIGTERM)
+        return original(self, path)
+
+    monkeypatch.setattr(RunReport, "write", write)
+    report_path = tmp_path / "r.json"
+    code, err = _run_main(["run", str(SLALOM), "--max-time", "1", "--tree", "none",
+                           "--report", str(report_path)], tmp_path)
+    assert code == 130, err
+    assert "Traceback" not in err
+    report = json.loads(report_path.read_text())
+    assert (report["outcome"], report["reason"]) == ("failed", "time limit: 1 s")
+    assert report["sim_final"]["wheels_mm_s"] == [0, 0]
+    last = json.loads((tmp_path / "r.events.jsonl").read_text().splitlines()[-1])
+    assert last["kind"] == "end" and last["outcome"] == "failed"
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_b8_a_signal_after_the_command_returned_exits_130(tmp_path: Path, sig: int) -> None:
+    """The signal lands while the process exits, after the files were written (an atexit
+    handler sends it: the same moment every time). It used to be ignored (exit 0 or 1)."""
+    report = tmp_path / "r.json"
+    code = (f"import atexit, os, sys\n"
+            f"atexit.register(lambda: os.kill(os.getpid(), {int(sig)}))\n"
+            f"sys.argv = ['marknav', 'run', {str(SLALOM)!r}, '--max-time', '1', '--tree',"
+            f" 'none', '--report', {str(report)!r}]\n"
+            "from marknav.__main__ import entry\n"
+            "entry()\n")
+    proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=ENV,
+                          capture_output=True, text=True, timeout=90)
+    assert proc.returncode == 130, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert json.loads(report.read_text())["reason"] == "time limit: 1 s"  # the run's verdict
+    assert json.loads((tmp_path / "r.events.jsonl").read_text().splitlines()[-1])["kind"] == "end"
+
+
+def test_b5_a_dask_address_that_never_answers_is_exit_2_within_seconds(tmp_path: Path) -> None:
+    """A peer that accepts the connection and says nothing (a wrong port, a stuck scheduler):
+    the connect used to wait for ever; a failed client printed a clean-up traceback after the
+    exit-2 message."""
+    pytest.importorskip("distributed")
+    with socket.socket() as listener:
+        listener.bind(("127.0.0.1", 0))
+        listener.listen(8)
+        address = f"tcp://127.0.0.1:{listener.getsockname()[1]}"
+        t0 = time.monotonic()
+        proc = marknav("evaluate", str(SLALOM), "--runs", "1", "--dask", address, cwd=tmp_path,
+                       timeout=60)
+        took = time.monotonic() - t0
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr and "Exception" not in proc.stderr, proc.stderr
+    assert f"--dask: cannot connect to the Dask scheduler at {address}" in proc.stderr
+    assert proc.stderr.count("\n") == 1  # the one message
+    assert took < 30  # 3 s for the scheduler to answer, plus start-up on a loaded machine

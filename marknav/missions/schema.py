@@ -367,10 +367,11 @@ class Camera(BaseModel):
         # (camera.range.a), without the union tag pydantic would insert.
         if isinstance(value, dict):
             model = value.get("model")
-            if known_key(model, _RANGE_MODELS) is not None:
-                problems = model_problems(_RANGE_MODELS[model], value)
+            known = known_key(model, _RANGE_MODELS)
+            if known is not None:
+                problems = model_problems(_RANGE_MODELS[known], value)
                 _raise("Camera", problems)
-                return _RANGE_MODELS[model].model_validate(value)
+                return _RANGE_MODELS[known].model_validate(value)
             if model is None:
                 problem = _problem("missing", "missing 'model': power or pinhole", ("model",), None)
             else:

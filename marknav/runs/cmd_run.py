@@ -5,9 +5,14 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from marknav.errors import InputError, MissionFailed
 from marknav.missions.cmd_validate import SET_HELP
+
+if TYPE_CHECKING:
+    from marknav.missions.schema import Mission
+    from marknav.runs.run import RunRequest
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -70,7 +75,7 @@ def check_outputs(args: argparse.Namespace) -> None:
     from marknav.outputs import check_output_file
 
     for option, path in (("--report", args.report), ("--events", args.events),
-                         ("--plot", args.plot)):
+                         ("--plot", args.plot), ("--record", args.record)):
         if path is not None:
             check_output_file(path, option=option)
     if args.plot is not None and args.robot != "sim":
@@ -79,11 +84,12 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from marknav.missions.checks import checked_mission
+    from marknav.errors import InputErrors
+    from marknav.missions.checks import loaded_mission_problems, read_mission
     from marknav.missions.overrides import parse_overrides
     from marknav.outputs import printable
     from marknav.runs.report import reached
-    from marknav.runs.run import RunRequest, default_run_dir, execute, summary
+    from marknav.runs.run import execute, summary, write_interrupted
 
     if args.max_time is not None and not args.max_time > 0:
         raise InputError(f"must be positive, got {args.max_time}", field="--max-time")
@@ -100,45 +106,52 @@ def run(args: argparse.Namespace) -> int:
     check_outputs(args)
     overrides = parse_overrides(args.overrides)
     world = None if args.world in (None, "generate", "random") else args.world
-    # Everything 'marknav validate' checks, before anything starts; then only the hardware.
-    mission = checked_mission(args.mission, overrides, world=world)
-    report_path: Path = args.report or default_run_dir(mission) / "report.json"
-    events_path: Path = args.events or report_path.with_name(report_path.stem + ".events.jsonl")
-    if args.events is None:
-        from marknav.outputs import check_output_file
+    requests: list[RunRequest] = []
 
-        check_output_file(events_path, option="--events")
-    generated = args.world in ("generate", "random")
-    req = RunRequest(
-        mission=mission, world=None if generated else args.world, robot=args.robot,
-        camera=args.camera, generate_world=generated, randomise=args.world == "random",
-        tree_style=args.tree, out=sys.stdout, report_path=report_path,
-        events_path=events_path, plot_path=args.plot, seed=args.seed,
-        realtime=args.realtime, max_time_s=args.max_time, frames_hz=args.frames,
-        viewer=args.viewer, record_path=args.record,
-    )
+    def request() -> RunRequest:
+        """The run's request, made once: the default report path is a new folder."""
+        if not requests:
+            requests.append(_request(args, mission))
+        return requests[0]
 
     def written() -> str:
-        names = {report_path: "report", events_path: "events", args.plot: "plot"}
-        order = [report_path, events_path, args.plot]
+        req = request()
+        names = {req.report_path: "report", req.events_path: "events", args.plot: "plot"}
+        order = [req.report_path, req.events_path, args.plot]
         shown = sorted(req.written, key=lambda p: order.index(p) if p in order else 9)
         return "  ".join(f"{names[p]}: {printable(str(p))}" for p in shown)
 
     def write_errors() -> None:
-        for error in req.write_errors:
+        for error in request().write_errors:
             print(f"marknav run: error: {printable(error)}", file=sys.stderr)
 
+    # Everything 'marknav validate' checks, before anything starts; then only the hardware.
+    # Once the file is read, a signal at any moment leaves a report and an event log.
+    mission = read_mission(args.mission, overrides, world=world)
+    started = False
     try:
+        problems = loaded_mission_problems(mission, overrides, world=world)
+        if problems:
+            raise InputErrors(problems)
+        req = request()
+        started = True
         result = execute(req)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
+        req = request()
+        when = "while starting" if started else "while checking the mission"
+        early = not req.finishing  # execute() had not got as far as writing its files
+        if early:
+            write_interrupted(req, exc, when)
         write_errors()
-        print(f"marknav run: interrupted; wheels stopped; {written() or 'nothing written'}",
-              file=sys.stderr)
+        state = "wheels stopped" if started else "nothing was started"
+        print(f"marknav run: interrupted{' ' + when if early else ''}; {state}; "
+              f"{written() or 'nothing written'}", file=sys.stderr)
         raise
     except InputError:
-        write_errors()
-        if req.written:
-            print(f"marknav run: did not start; {written()}", file=sys.stderr)
+        if requests:
+            write_errors()
+            if requests[0].written:
+                print(f"marknav run: did not start; {written()}", file=sys.stderr)
         raise
     report = result.report
     print(summary(report))
@@ -169,3 +182,24 @@ def run(args: argparse.Namespace) -> int:
     if report.outcome != "success":
         raise MissionFailed(f"{report.outcome}: {report.reason}")
     return 0
+
+
+def _request(args: argparse.Namespace, mission: Mission) -> RunRequest:
+    """What to run, and where its files go (the default: a new folder under runs/, created
+    now; its event log checked as the user's own paths were)."""
+    from marknav.outputs import check_output_file
+    from marknav.runs.run import RunRequest, default_run_dir
+
+    report_path: Path = args.report or default_run_dir(mission) / "report.json"
+    events_path: Path = args.events or report_path.with_name(report_path.stem + ".events.jsonl")
+    if args.events is None:
+        check_output_file(events_path, option="--events")
+    generated = args.world in ("generate", "random")
+    return RunRequest(
+        mission=mission, world=None if generated else args.world, robot=args.robot,
+        camera=args.camera, generate_world=generated, randomise=args.world == "random",
+        tree_style=args.tree, out=sys.stdout, report_path=report_path,
+        events_path=events_path, plot_path=args.plot, seed=args.seed,
+        realtime=args.realtime, max_time_s=args.max_time, frames_hz=args.frames,
+        viewer=args.viewer, record_path=args.record,
+    )
