@@ -975,3 +975,26 @@ def test_b5_a_dask_address_that_never_answers_is_exit_2_within_seconds(tmp_path:
     assert f"--dask: cannot connect to the Dask scheduler at {address}" in proc.stderr
     assert proc.stderr.count("\n") == 1  # the one message
     assert took < 30  # 3 s for the scheduler to answer, plus start-up on a loaded machine
+
+
+def test_the_event_log_never_keeps_half_a_record_when_the_disk_fills(tmp_path: Path) -> None:
+    """A file that stops taking bytes in the middle of a record (a full disk; here the file
+    size limit, RLIMIT_FSIZE: the write takes what fits, then EFBIG): the log ends with the last
+    whole record, and says why it stopped."""
+    path = tmp_path / "e.jsonl"
+    code = ("import resource, sys\n"
+            "resource.setrlimit(resource.RLIMIT_FSIZE, (1000, 1000))\n"
+            "from marknav.runs.report import EventLog\n"
+            f"log = EventLog({str(path)!r})\n"
+            "for i in range(100):\n"
+            "    log.write(i * 0.05, 'tick', n=i, pad='x' * 37)\n"
+            "log.close()\n"
+            "print(log.error)\n")
+    proc = subprocess.run([sys.executable, "-c", code], env=ENV, capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert "File too large" in proc.stdout
+    data = path.read_text()
+    assert 0 < len(data) <= 1000 and data.endswith("\n"), data[-80:]
+    records = [json.loads(line) for line in data.splitlines()]
+    assert [r["n"] for r in records] == list(range(len(records)))
