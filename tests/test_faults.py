@@ -10,6 +10,7 @@ speed ("a read never waits" is shown by making the wait itself fail).
 from __future__ import annotations
 
 import json
+import math
 import os
 import random
 import re
@@ -19,6 +20,7 @@ import socket
 import struct
 import subprocess
 import sys
+import threading
 import time
 import zlib
 from collections.abc import Callable, Iterator
@@ -998,3 +1000,77 @@ def test_the_event_log_never_keeps_half_a_record_when_the_disk_fills(tmp_path: P
     assert 0 < len(data) <= 1000 and data.endswith("\n"), data[-80:]
     records = [json.loads(line) for line in data.splitlines()]
     assert [r["n"] for r in records] == list(range(len(records)))
+
+
+# --- serve-robot under a crowd of junk clients ---
+
+JUNK_CLIENTS = 200
+
+
+def _junk_client(port: int, k: int, stop: threading.Event) -> None:
+    """Connect again and again; half say nothing, half send random bytes (never OI Start
+    or a telnet command first): each kept open until the server closes it."""
+    rng = random.Random(k)
+    while not stop.is_set():
+        try:
+            with socket.create_connection(("127.0.0.1", port), timeout=2) as s:
+                if k % 2:
+                    noise = bytearray(rng.randbytes(48))
+                    noise[0] = rng.choice([b for b in range(256) if b not in (128, 255)])
+                    s.sendall(bytes(noise))
+                s.settimeout(0.2)
+                while not stop.is_set():
+                    try:
+                        if s.recv(4096) == b"":
+                            break
+                    except TimeoutError:
+                        continue
+        except OSError:
+            time.sleep(0.05)
+
+
+def heard_among_junk(url: str, port: int, junk: int = JUNK_CLIENTS) -> float:
+    """Seconds from a real client's connect to the robot's first answer, while ``junk`` junk
+    clients keep connecting to the same bridge."""
+    import serial
+
+    stop = threading.Event()
+    threads = [threading.Thread(target=_junk_client, args=(port, k, stop), daemon=True)
+               for k in range(junk)]
+    for t in threads:
+        t.start()
+    try:
+        time.sleep(1.0)  # the crowd is there first
+        t0 = time.monotonic()
+        port_ = serial.serial_for_url(url, baudrate=115200, timeout=0.1)
+        try:
+            port_.write(oi.start() + oi.safe() + oi.sensors(7, model=oi.Model.CREATE2))
+            got = b""
+            while not got and time.monotonic() - t0 < 90:
+                got = port_.read(1)
+            return time.monotonic() - t0 if got else math.inf
+        finally:
+            port_.close()
+    finally:
+        stop.set()
+        for t in threads:
+            t.join(timeout=5)
+
+
+def test_serve_robot_hears_a_real_client_among_200_junk_clients(tmp_path: Path) -> None:
+    """The sweep measured up to 62 s (a listen backlog of 2 overflowed: the real client's
+    connection attempts were dropped and retried after 1, 3, 7 … s; the first junk connection
+    held the robot). Junk is now dropped fast and the real client answered at once."""
+    proc = spawn("serve-robot", "--sim", "--port", "0", cwd=tmp_path)
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()
+        url = line.split(" at ")[-1].strip()
+        assert url.startswith("rfc2217://"), line
+        heard = heard_among_junk(url, int(url.rsplit(":", 1)[1]))
+        assert heard < 5.0, heard  # ≈ 0.1 s on an idle machine; the issue asks for 2 s
+    finally:
+        proc.send_signal(signal.SIGINT)
+        code, _out, err = finish(proc, 30)
+    assert code == 130, err
+    assert "Traceback" not in err
