@@ -31,14 +31,15 @@ from typing import Any
 import pytest
 import yaml
 
-from marknav.cli import main
-from marknav.clock import MonotonicClock
-from marknav.drivers import oi, rfc2217_bridge
-from marknav.drivers.driver import CreateDriver
-from marknav.drivers.packets import OIMode
-from marknav.drivers.rfc2217_bridge import Rfc2217Bridge
-from marknav.drivers.transport import open_port
-from marknav.errors import InputError
+from marknav.cli.main import main
+from marknav.core.clock import MonotonicClock
+from marknav.core.errors import InputError
+from marknav.remote import rfc2217_bridge
+from marknav.remote.rfc2217_bridge import Rfc2217Bridge
+from marknav.robot import oi
+from marknav.robot.driver import CreateDriver
+from marknav.robot.packets import OIMode
+from marknav.robot.transport import open_port
 from marknav.sim.create import SimulatedCreate, WheelSpeeds
 from marknav.sim.pty import PtyServer
 
@@ -380,7 +381,7 @@ def test_7_a_signal_while_importing_exits_130_without_a_traceback(tmp_path: Path
     seen = []
     for line in proc.stderr:  # -X importtime: one line per finished import
         seen.append(line)
-        if line.rstrip().endswith("marknav.outputs"):  # main() imports it after install()
+        if line.rstrip().endswith("marknav.core.outputs"):  # main() imports it after install()
             proc.send_signal(sig)
             break
     code, _out, err = finish(proc, 30)
@@ -434,7 +435,7 @@ def test_7_sigterm_outside_the_loop_still_writes_everything(
 def test_7_sigint_while_loading_names_no_report(monkeypatch: pytest.MonkeyPatch,
                                                 tmp_path: Path,
                                                 capsys: pytest.CaptureFixture[str]) -> None:
-    import marknav.missions.checks as checks
+    import marknav.runs.checks as checks
 
     original = checks.load_mission
 
@@ -885,8 +886,8 @@ def test_b7_a_signal_once_the_mission_was_read_leaves_a_report_and_a_log(
         monkeypatch: pytest.MonkeyPatch, tmp_path: Path, target: str, when: str) -> None:
     """The mission file is read; a SIGINT lands while it is being checked (1.9–2.3 s into a
     real run): exit 130, and the report and the event log say aborted, interrupted."""
-    import marknav.missions.checks as checks
-    import marknav.runs.cmd_run as cmd_run
+    import marknav.cli.run as cmd_run
+    import marknav.runs.checks as checks
     import marknav.runs.run as runmod
 
     module = {"check_build": checks, "check_world": checks, "_request": cmd_run,
@@ -1095,7 +1096,7 @@ def _log_has(events: Path, kind: str) -> bool:
 def _sweep_run(tmp_path: Path, k: int, anchor: str, offset: float, sig: int
                ) -> tuple[int, str, bool, float]:
     """``run`` the slalom and signal it ``offset`` s after ``anchor``: "start" (marknav's first
-    line ran: its entry point imported :mod:`marknav.signals`), "events" (the event log
+    line ran: its entry point imported :mod:`marknav.core.signals`), "events" (the event log
     appeared: the run is starting), "tick" (the loop runs), "end" (the log's end record: the
     final write is under
     way), "report" (the report is written: the command is returning), "never". Exit code,
@@ -1113,7 +1114,7 @@ def _sweep_run(tmp_path: Path, k: int, anchor: str, offset: float, sig: int
         assert proc.stderr is not None
         for line in proc.stderr:
             lines.append(line)
-            if line.rstrip().endswith(" marknav.signals"):
+            if line.rstrip().endswith(" marknav.core.signals"):
                 started.set()
 
     reader = threading.Thread(target=read_stderr, daemon=True)

@@ -1,7 +1,7 @@
 """Mutation testing of the modules where a silent bug is dangerous, one module at a time.
 
     nice -n 10 python tools/mutation.py safety          # one module (see MODULES)
-    nice -n 10 python tools/mutation.py driver --only 'marknav.drivers.driver.xǁCreateDriverǁclose*'
+    nice -n 10 python tools/mutation.py driver --only 'marknav.robot.driver.xǁCreateDriverǁclose*'
                                                         # only these mutants (fnmatch patterns)
     nice -n 10 python tools/mutation.py --all           # every module, smallest first
     python tools/mutation.py safety --report            # score + survivors of the last run
@@ -217,7 +217,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--max-children", type=int, default=2, help="parallel mutants (2)")
     parser.add_argument("--only", action="append", default=[], metavar="PATTERN",
                         help="check (and report) only the mutants matching this mutmut name "
-                             "pattern, e.g. 'marknav.drivers.oi.x_command_length__mutmut_*' "
+                             "pattern, e.g. 'marknav.robot.oi.x_command_length__mutmut_*' "
                              "(repeatable; one module)")
     args = parser.parse_args(argv)
     names = list(MODULES) if args.all else args.modules

@@ -117,7 +117,7 @@ class RunReport:
         return d
 
     def write(self, path: str | Path) -> None:
-        """Write the report (its folder must exist: see :mod:`marknav.outputs`). A regular
+        """Write the report (its folder must exist: see :mod:`marknav.core.outputs`). A regular
         file is replaced atomically; anything else (``/dev/stdout``) is written in place.
         Raises ``OSError`` if it cannot be written (ENOSPC, EACCES…)."""
         p = Path(path)
@@ -138,7 +138,7 @@ class RunReport:
 class EventLog:
     """Append-only JSON Lines log, each record written whole as it happens.
 
-    Opening it raises ``OSError`` (check the path first: :mod:`marknav.outputs`). Each record
+    Opening it raises ``OSError`` (check the path first: :mod:`marknav.core.outputs`). Each record
     is one ``os.write`` of one whole line (unbuffered: nothing waits in memory). A write that
     fails later (a full disk: ENOSPC, a file size limit: EFBIG) never stops the run: the part
     of the record that did reach the file is taken back (truncated), so the log ends with its

@@ -38,10 +38,10 @@ from typing import Any
 import numpy as np
 import py_trees
 
-from marknav import signals
 from marknav.behaviours import keys
-from marknav.errors import InputError
-from marknav.inputfile import MAX_LOG_BYTES, read_bytes, stat_path
+from marknav.core import signals
+from marknav.core.errors import InputError
+from marknav.core.inputfile import MAX_LOG_BYTES, read_bytes, stat_path
 from marknav.runs.report import EventLog, RunReport
 from marknav.runs.treeview import SUCCESS, TreeState
 

@@ -35,8 +35,8 @@ from typing import Any
 
 import yaml
 
-from marknav.errors import InputError
-from marknav.figures import save_figure
+from marknav.core.errors import InputError
+from marknav.core.figures import save_figure
 
 __all__ = ["Param", "TuneResult", "best_yaml", "parse_param", "plot_trials", "tune"]
 
@@ -202,10 +202,10 @@ def tune(
         import optuna
     except ImportError:
         raise InputError("needs optuna: pip install 'marknav[cluster]'") from None
+    from marknav.core.yamlio import load_yaml_file
     from marknav.missions.schema import load_mission
     from marknav.runs.evaluate import evaluate
     from marknav.runs.run import default_max_time_s
-    from marknav.yamlio import load_yaml_file
 
     if not params:
         raise InputError("give at least one --param KEY=LOW:HIGH", field="--param")

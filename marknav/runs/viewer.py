@@ -26,8 +26,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from marknav.errors import InputError
-from marknav.inputfile import MAX_IMAGE_BYTES, read_bytes
+from marknav.core.errors import InputError
+from marknav.core.inputfile import MAX_IMAGE_BYTES, read_bytes
 from marknav.runs.display import status_text
 from marknav.runs.treeview import TreeState
 

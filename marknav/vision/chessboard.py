@@ -6,7 +6,7 @@ Each image must show the whole board; its inner corners are found
 k3) to all of them. The result's RMS is the reprojection error over every corner, in pixels;
 0.1–0.5 px is a good calibration, above 1 px something moved (a blurred view, a bent board).
 
-Every problem with the input is an :class:`~marknav.errors.InputError` naming the file: an
+Every problem with the input is an :class:`~marknav.core.errors.InputError` naming the file: an
 unreadable image, no board found, images of different sizes, fewer than :data:`MIN_IMAGES`
 usable images.
 """
@@ -25,8 +25,8 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from marknav.errors import InputError
-from marknav.figures import save_figure
+from marknav.core.errors import InputError
+from marknav.core.figures import save_figure
 from marknav.vision.imagefile import read_image
 from marknav.vision.undistort import Intrinsics
 

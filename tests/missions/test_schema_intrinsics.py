@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from marknav.cli import main
+from marknav.cli.main import main
 from marknav.missions.schema import load_mission
 
 MISSION = """\

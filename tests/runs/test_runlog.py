@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from marknav.cli import main
+from marknav.cli.main import main
 from marknav.missions.schema import load_mission
 from marknav.runs import runlog
 from marknav.runs.run import RunRequest, execute
@@ -192,7 +192,7 @@ def test_v_shows_marknav_info_but_not_library_chatter(
     main(["-v", "run", str(SLALOM), "--tree", "none", "--max-time", "1",
           "--report", str(tmp_path / "r.json")])
     err = capsys.readouterr().err
-    assert "INFO marknav.drivers.driver: connected to create2" in err
+    assert "INFO marknav.robot.driver: connected to create2" in err
     assert "transitions" not in err
 
 
@@ -200,7 +200,7 @@ def test_v_shows_marknav_info_but_not_library_chatter(
 def test_a_robot_run_logs_run_relative_times_and_camera_frames(tmp_path: Path) -> None:
     """The real-robot path (driver over a pseudo-terminal, a still image as the camera, the
     monotonic clock): safety events in run time, not the raw monotonic clock; frames saved."""
-    from marknav.clock import MonotonicClock
+    from marknav.core.clock import MonotonicClock
     from marknav.sim.create import SimulatedCreate
     from marknav.sim.pty import PtyServer
 

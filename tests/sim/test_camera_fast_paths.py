@@ -15,9 +15,9 @@ import numpy.typing as npt
 import pytest
 
 from marknav.planning.kinematics import Pose
+from marknav.runs.bench_render import example_poses, example_renderer
 from marknav.sim.camera import CameraConfig, Renderer
 from marknav.sim.projection import MarkGeometry, clip_near, inset, rim_projection
-from marknav.sim.render_bench import example_poses, example_renderer
 from marknav.sim.world import Background, Conditions, MarkSpec, World
 from marknav.vision.palette import ColourRange
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import cv2
 import pytest
 
-from marknav.cli import main
+from marknav.cli.main import main
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 LEFT = sorted(str(p) for p in (DATA / "opencv-left").glob("left*.jpg"))

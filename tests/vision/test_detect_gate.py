@@ -6,7 +6,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from marknav.vision.bench import SceneSpec, render_scene
+from marknav.runs.bench_vision import SceneSpec, render_scene
 from marknav.vision.detect import Detector, DetectorConfig, Mark, gate
 from marknav.vision.detect.gate import SearchBuffers, search_products
 from marknav.vision.palette import DEFAULT_PALETTE

@@ -54,10 +54,11 @@ HERE = Path(__file__).resolve().parent
 
 def record_frames(out: Path) -> None:
     """The closed loop's frames and its detector's config, and the other frame sets."""
-    from marknav.runs.bench import bench_loop
-    from marknav.vision import detector_setup
     from marknav.vision.bench_real import _resized, default_corpus, load_corpus
     from marknav.vision.composite import COMPOSITE_PALETTE, composite_frames, load_photos
+
+    from marknav.runs.bench import bench_loop
+    from marknav.vision import detector_setup
     from marknav.vision.palette import DEFAULT_PALETTE
 
     loop: list[Any] = []
@@ -105,8 +106,9 @@ def record_frames(out: Path) -> None:
 def compare(folder: Path, baseline: Path, repeats: int) -> dict[str, Any]:
     sys.path.insert(0, str(baseline))
     cv2.setNumThreads(1)
-    import marknav.vision.detect as new
     import marknav.vision.detector_setup as new_setup
+
+    import marknav.vision.detect as new
 
     # The baseline, imported from the path above.
     old = importlib.import_module("marknav_main.vision.detect")

@@ -18,14 +18,14 @@ from typing import Any
 
 import cv2
 import numpy as np
+from marknav.vision.bench_real import _resized, default_corpus, load_corpus
+from marknav.vision.composite import COMPOSITE_PALETTE, composite_frames, load_photos
+from marknav.vision.detector_setup import CameraDetector
 
 from marknav.planning.kinematics import Pose
 from marknav.sim.camera import CameraConfig, Renderer
 from marknav.sim.world import generate_world
-from marknav.vision.bench_real import _resized, default_corpus, load_corpus
-from marknav.vision.composite import COMPOSITE_PALETTE, composite_frames, load_photos
 from marknav.vision.detect import Detector
-from marknav.vision.detector_setup import CameraDetector
 from marknav.vision.palette import DEFAULT_PALETTE, Palette
 
 

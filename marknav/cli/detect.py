@@ -1,0 +1,108 @@
+"""``marknav detect``: find the coloured marks in images, print them, optionally draw them."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from marknav.core.errors import InputError
+
+if TYPE_CHECKING:
+    from marknav.missions.schema import Mission
+    from marknav.vision.detect import Mark
+
+
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser(
+        "detect",
+        help="find coloured circular marks in images",
+        description="Detect marks (colour, centre, radius, axes, angle, shape, score) in each "
+                    "IMAGE with the mission's palette (or the built-in red, orange, yellow, "
+                    "green, blue). With --mission, also each mark's distance by the mission's "
+                    "range law (camera.range) and its offset to the left of the camera axis.",
+    )
+    p.add_argument("images", metavar="IMAGE", nargs="+", help="image files")
+    p.add_argument("--mission", metavar="MISSION",
+                   help="take the palette from this mission, and give distances by its "
+                        "camera.range law")
+    p.add_argument("--json", action="store_true",
+                   help="print [{image, marks: [{colour, x, y, radius, axes, angle, shape, "
+                        "score}]}]")
+    p.add_argument("--annotate", metavar="DIR", type=Path,
+                   help="write each image with its marks drawn and labelled into DIR")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    import cv2
+
+    from marknav.vision.annotate import annotate
+    from marknav.vision.detect import Detector
+    from marknav.vision.palette import DEFAULT_PALETTE, Palette
+    from marknav.vision.sources import read_image
+
+    palette: Palette = DEFAULT_PALETTE
+    mission = None
+    if args.mission:
+        from marknav.missions.schema import load_mission
+
+        mission = load_mission(args.mission)
+        palette = mission.palette()
+    images = [(name, read_image(name)) for name in args.images]  # all readable, or exit 2
+    if args.annotate is not None:
+        try:
+            args.annotate.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise InputError(f"cannot create the folder: {exc}", file=str(args.annotate)) from None
+    detector = Detector(palette)
+    results = []
+    for name, image in images:
+        marks = detector.detect(image)
+        where = [mark_position(m, image.shape[1], mission) for m in marks] if mission else []
+        rows = [m.to_dict() for m in marks]
+        for row, pos in zip(rows, where, strict=False):
+            row.update(pos)
+        results.append({"image": name, "marks": rows})
+        if not args.json:
+            print(f"{name}: {len(marks)} mark{'s' if len(marks) != 1 else ''}")
+            if mission is not None:
+                note = size_note(mission, image.shape[1], image.shape[0])
+                if note:
+                    print(f"  note: {note}")
+            for i, m in enumerate(marks):
+                distance = (f" distance={where[i]['distance_mm']:6.0f} mm "
+                            f"left={where[i]['left_mm']:6.0f} mm" if where else "")
+                print(f"  {m.colour:<8} x={m.x:7.1f} y={m.y:7.1f} r={m.radius:6.1f} "
+                      f"axes=({m.axes[0]:.1f}, {m.axes[1]:.1f}) angle={m.angle_deg:5.1f} "
+                      f"{m.shape:<7} score={m.score:.2f}{distance}")
+        if args.annotate is not None:
+            out = args.annotate / (Path(name).stem + ".annotated.png")
+            if not cv2.imwrite(str(out), annotate(image, marks, palette)):
+                raise InputError("cannot write the annotated image", file=str(out))
+            if not args.json:
+                print(f"  drawn: {out}")
+    if args.json:
+        print(json.dumps(results, indent=2))
+    return 0
+
+
+def mark_position(mark: Mark, image_width: int, mission: Mission) -> dict[str, float]:
+    """The mark's distance (mm, the mission's range law) and offset to the left of the camera's
+    axis (mm), as perception estimates them (paper eqs. 19/2 and 21)."""
+    from marknav.missions.camera import range_model_of
+    from marknav.vision.estimate import estimate
+
+    est = estimate(x_px=mark.x, radius_px=mark.radius, cx=image_width / 2.0,
+                   model=range_model_of(mission), mark_radius_mm=mission.marks.radius_mm)
+    return {"distance_mm": round(est.distance_mm, 1), "left_mm": round(est.left_mm, 1)}
+
+
+def size_note(mission: Mission, width: int, height: int) -> str | None:
+    """A warning when the image is not the size the mission's range law is for."""
+    cam = mission.camera
+    if (width, height) == (cam.width, cam.height):
+        return None
+    return (f"the image is {width}×{height}, the mission's camera {cam.width}×{cam.height}: "
+            "its range law is for that size, so these distances are off by the scale")
