@@ -1070,7 +1070,11 @@ def test_serve_robot_hears_a_real_client_among_200_junk_clients(tmp_path: Path) 
         url = line.split(" at ")[-1].strip()
         assert url.startswith("rfc2217://"), line
         heard = heard_among_junk(url, int(url.rsplit(":", 1)[1]))
-        assert heard < 5.0, heard  # ≈ 0.1 s on an idle machine; the issue asks for 2 s
+        print(f"serve-robot: a real client heard after {heard:.3f} s among {JUNK_CLIENTS} "
+              "junk clients")
+        # ≈ 0.4 s (pyserial's RFC 2217 negotiation alone: ≈ 0.35 s); the issue asks for 2 s,
+        # this allows for a loaded CI machine
+        assert heard < 5.0, heard
     finally:
         proc.send_signal(signal.SIGINT)
         code, _out, err = finish(proc, 30)
