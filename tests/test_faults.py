@@ -10,6 +10,7 @@ speed ("a read never waits" is shown by making the wait itself fail).
 from __future__ import annotations
 
 import json
+import math
 import os
 import random
 import re
@@ -19,8 +20,10 @@ import socket
 import struct
 import subprocess
 import sys
+import threading
 import time
 import zlib
+from collections import Counter
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -719,3 +722,508 @@ def test_7_a_verdict_reached_in_the_tick_a_signal_lands_in_stands(
     assert records[-1]["kind"] == "end" and records[-1]["outcome"] == "failed"
     assert records[-1]["ticks"] == report["ticks"] == max(
         r["n"] for r in records if r["kind"] == "tick") + 1
+
+
+# --- issue 31: what a fault sweep broke (B1-B8, serve-robot under junk, whole log records) ---
+
+LONG_NAME = "w" * 300 + ".yaml"  # longer than any one file name the OS takes (255 bytes)
+
+
+def _slalom_with(tmp_path: Path, old: str, new: str, file: str = "m.yaml") -> Path:
+    text = SLALOM.read_text(encoding="utf-8").replace(
+        "world: worlds/", f"world: {SLALOM.parent}/worlds/")
+    assert old in text
+    path = tmp_path / file
+    path.write_text(text.replace(old, new), encoding="utf-8")
+    return path
+
+
+def _run_main(argv: list[str], cwd: Path) -> tuple[int, str]:
+    """``main(argv)`` in ``cwd``: the exit code (argparse's too) and stderr."""
+    import contextlib
+    import io
+
+    err = io.StringIO()
+    old = os.getcwd()
+    os.chdir(cwd)
+    try:
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            try:
+                code = main(argv)
+            except SystemExit as exc:
+                code = int(exc.code or 0)
+    finally:
+        os.chdir(old)
+    return code, err.getvalue()
+
+
+@pytest.mark.parametrize("command", [
+    ["validate"], ["tree"], ["run", "--tree", "none", "--max-time", "1"],
+])
+def test_b1_a_missions_world_name_too_long_is_exit_2_at_its_line(tmp_path: Path,
+                                                                 command: list[str]) -> None:
+    mission = _slalom_with(tmp_path, "world: " + str(SLALOM.parent) + "/worlds/slalom-world.yaml",
+                           "world: " + LONG_NAME)
+    code, err = _run_main([command[0], str(mission), *command[1:]], tmp_path)
+    assert code == 2, err
+    assert "Traceback" not in err and "OSError" not in err
+    line = next(i for i, ln in enumerate(mission.read_text().splitlines(), 1)
+                if ln.startswith("  world:"))
+    assert f"{mission}:{line}:" in err and "sim.world" in err, err
+    assert "name too long" in err.lower()
+
+
+@pytest.mark.parametrize("argv", [
+    ["run", str(SLALOM), "--world", LONG_NAME, "--tree", "none"],
+    ["validate", str(SLALOM), "--world", LONG_NAME],
+    ["replay", LONG_NAME, "--at", "0"],
+    ["view", LONG_NAME + ".rrd", "--save", "x.rrd"],
+    ["validate", LONG_NAME],
+    ["detect", LONG_NAME],
+    ["calibrate", LONG_NAME],
+    ["calibrate-camera", LONG_NAME, LONG_NAME + "1", LONG_NAME + "2", "--board", "9x6",
+     "--square-mm", "25"],
+    ["serve-camera", "--camera", LONG_NAME, "--port", "0"],
+])
+def test_b2_any_path_too_long_is_exit_2_naming_it(tmp_path: Path, argv: list[str]) -> None:
+    code, err = _run_main(argv, tmp_path)
+    assert code == 2, err
+    assert "Traceback" not in err and "OSError" not in err
+    assert LONG_NAME[:40] in err and "name too long" in err.lower(), err
+
+
+def test_b3_a_list_where_a_name_belongs_is_exit_2_at_its_line(tmp_path: Path) -> None:
+    """``robot: {model: [create2]}`` without ``wheel_base_mm``: the model was used as a dict key
+    before its type was checked (TypeError: unhashable type: 'list')."""
+    mission = _slalom_with(tmp_path, "  model: create2\n  wheel_base_mm: 235\n",
+                           "  model: [create2]\n")
+    for command in (["validate"], ["tree"], ["run", "--tree", "none", "--max-time", "1"],
+                    ["evaluate", "--runs", "1", "--jobs", "1"]):
+        code, err = _run_main([command[0], str(mission), *command[1:]], tmp_path)
+        assert code == 2, (command, err)
+        assert "Traceback" not in err and "TypeError" not in err
+        assert f"{mission}:21:" in err and "robot.model" in err, err
+
+
+def _fifo(tmp_path: Path, name: str) -> Path:
+    path = tmp_path / name
+    os.mkfifo(path)
+    return path
+
+
+def test_b4_a_fifo_as_the_camera_is_refused_at_once(robot: PtyServer, tmp_path: Path) -> None:
+    """A FIFO with no writer blocked ``run`` in OpenCV's open() (signals could not end it)."""
+    fifo = _fifo(tmp_path, "fifo.avi")
+    t0 = time.monotonic()
+    proc = marknav("run", str(hardware_mission(tmp_path)), "--robot", robot.path,
+                   "--camera", str(fifo), "--report", str(tmp_path / "r.json"), "--tree", "none",
+                   cwd=tmp_path, timeout=60)
+    assert time.monotonic() - t0 < 30
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert f"{fifo}: is a pipe (FIFO)" in proc.stderr
+    assert robot.bytes_in == 0  # refused before the robot was opened
+
+
+def test_b4_serve_camera_refuses_a_fifo(tmp_path: Path) -> None:
+    fifo = _fifo(tmp_path, "fifo.avi")
+    proc = marknav("serve-camera", "--camera", str(fifo), "--port", "0", cwd=tmp_path,
+                   timeout=60)
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert f"{fifo}: is a pipe (FIFO)" in proc.stderr
+
+
+@pytest.mark.parametrize("what", ["world", "replay", "images", "table"])
+def test_b4_no_path_opens_a_fifo(tmp_path: Path, what: str) -> None:
+    """Every file marknav reads goes through one reader that refuses FIFOs before opening."""
+    if what == "world":
+        argv = ["run", str(SLALOM), "--world", str(_fifo(tmp_path, "w.yaml")), "--tree", "none"]
+    elif what == "replay":
+        argv = ["replay", str(_fifo(tmp_path, "r.events.jsonl")), "--at", "0"]
+    elif what == "images":
+        argv = ["calibrate-camera", *(str(_fifo(tmp_path, f"board{i}.png")) for i in range(3)),
+                "--board", "9x6", "--square-mm", "25"]
+    else:
+        argv = ["calibrate", str(_fifo(tmp_path, "t.csv"))]
+    proc = marknav(*argv, cwd=tmp_path, timeout=60)
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert "is a pipe (FIFO)" in proc.stderr
+
+
+@pytest.mark.parametrize(("sig", "delay"), [
+    (signal.SIGINT, 0.0), (signal.SIGINT, 0.002), (signal.SIGINT, 0.01), (signal.SIGINT, 0.03),
+    (signal.SIGINT, 0.1), (signal.SIGTERM, 0.0), (signal.SIGTERM, 0.05),
+])
+def test_b6_a_signal_in_the_first_tenth_of_a_second_exits_130(tmp_path: Path, sig: int,
+                                                              delay: float) -> None:
+    """From marknav's first imports on (here: argparse, which only the command line needs), a
+    signal exits 130 without a traceback. Before, the command line's own imports (argparse,
+    logging: ≈ 10 ms) ran before any handler: a KeyboardInterrupt traceback, exit 1 or -2, and
+    SIGTERM killed the process. (The interpreter's own start-up before the first marknav line,
+    ≈ 15 ms here, is out of marknav's reach.)"""
+    proc = subprocess.Popen([sys.executable, "-X", "importtime", "-m", "marknav", "run",
+                             str(SLALOM), "--tree", "none", "--max-time", "1",
+                             "--report", str(tmp_path / "r.json")], cwd=tmp_path, env=ENV,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert proc.stderr is not None
+    seen = []
+    for line in proc.stderr:  # -X importtime: one line per finished import
+        seen.append(line)
+        if line.rstrip().endswith(" argparse"):
+            time.sleep(delay)
+            proc.send_signal(sig)
+            break
+    code, _out, err = finish(proc, 60)
+    assert code == 130, "".join(seen[-5:]) + err
+    assert "Traceback" not in err and "Exception" not in err, err
+    assert "interrupted" in err
+
+
+@pytest.mark.parametrize(("target", "when"), [
+    ("check_build", "while checking the mission"),  # building the tree
+    ("check_world", "while checking the mission"),  # loading the world
+    ("_request", "while checking the mission"),  # choosing the run folder
+    ("prepare", "while preparing the detector"),  # loading the compiled loops
+    ("execute", "while starting"),  # the run's first step, before its own files
+])
+def test_b7_a_signal_once_the_mission_was_read_leaves_a_report_and_a_log(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path, target: str, when: str) -> None:
+    """The mission file is read; a SIGINT lands while it is being checked (1.9–2.3 s into a
+    real run): exit 130, and the report and the event log say aborted, interrupted."""
+    import marknav.cli.run as cmd_run
+    import marknav.runs.checks as checks
+    import marknav.runs.run as runmod
+
+    module = {"check_build": checks, "check_world": checks, "_request": cmd_run,
+              "prepare": runmod, "execute": runmod}[target]
+    original = getattr(module, target)
+
+    def interrupted(*args: Any, **kwargs: Any) -> Any:
+        os.kill(os.getpid(), signal.SIGINT)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(module, target, interrupted)
+    if module is runmod:
+        monkeypatch.setattr(cmd_run, target, interrupted, raising=False)
+    monkeypatch.chdir(tmp_path)
+    code, err = _run_main(["run", str(SLALOM), "--tree", "none"], tmp_path)
+    assert code == 130, err
+    assert "Traceback" not in err
+    folders = list((tmp_path / "runs").iterdir())
+    assert len(folders) == 1, folders
+    report = json.loads((folders[0] / "report.json").read_text())
+    assert report["outcome"] == "aborted", report
+    assert report["reason"] == f"interrupted (SIGINT) {when}"
+    records = [json.loads(line) for line in
+               (folders[0] / "report.events.jsonl").read_text().splitlines()]
+    assert records[-1]["kind"] == "end" and records[-1]["reason"] == report["reason"]
+    assert f"interrupted {when}" in err
+    assert f"report: runs/{folders[0].name}/report.json" in err
+
+
+def test_b8_a_signal_during_the_final_write_keeps_the_outcome_and_exits_130(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """The run ended (time limit); a SIGTERM lands while the report is being written: the
+    report is written whole with the run's outcome, the log ends with it, exit 130."""
+    from marknav.runs.report import RunReport
+
+    original = RunReport.write
+
+    def write(self: RunReport, path: Any) -> Any:
+        os.kill(os.getpid(), signal.SIGTERM)
+        return original(self, path)
+
+    monkeypatch.setattr(RunReport, "write", write)
+    report_path = tmp_path / "r.json"
+    code, err = _run_main(["run", str(SLALOM), "--max-time", "1", "--tree", "none",
+                           "--report", str(report_path)], tmp_path)
+    assert code == 130, err
+    assert "Traceback" not in err
+    report = json.loads(report_path.read_text())
+    assert (report["outcome"], report["reason"]) == ("failed", "time limit: 1 s")
+    assert report["sim_final"]["wheels_mm_s"] == [0, 0]
+    last = json.loads((tmp_path / "r.events.jsonl").read_text().splitlines()[-1])
+    assert last["kind"] == "end" and last["outcome"] == "failed"
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_b8_a_signal_after_the_command_returned_exits_130(tmp_path: Path, sig: int) -> None:
+    """The signal lands while the process exits, after the files were written (an atexit
+    handler sends it: the same moment every time). It used to be ignored (exit 0 or 1)."""
+    report = tmp_path / "r.json"
+    code = (f"import atexit, os, sys\n"
+            f"atexit.register(lambda: os.kill(os.getpid(), {int(sig)}))\n"
+            f"sys.argv = ['marknav', 'run', {str(SLALOM)!r}, '--max-time', '1', '--tree',"
+            f" 'none', '--report', {str(report)!r}]\n"
+            "from marknav.__main__ import entry\n"
+            "entry()\n")
+    proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=ENV,
+                          capture_output=True, text=True, timeout=90)
+    assert proc.returncode == 130, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert json.loads(report.read_text())["reason"] == "time limit: 1 s"  # the run's verdict
+    assert json.loads((tmp_path / "r.events.jsonl").read_text().splitlines()[-1])["kind"] == "end"
+
+
+def test_b5_a_dask_address_that_never_answers_is_exit_2_within_seconds(tmp_path: Path) -> None:
+    """A peer that accepts the connection and says nothing (a wrong port, a stuck scheduler):
+    the connect used to wait for ever; a failed client printed a clean-up traceback after the
+    exit-2 message."""
+    pytest.importorskip("distributed")
+    with socket.socket() as listener:
+        listener.bind(("127.0.0.1", 0))
+        listener.listen(8)
+        address = f"tcp://127.0.0.1:{listener.getsockname()[1]}"
+        t0 = time.monotonic()
+        proc = marknav("evaluate", str(SLALOM), "--runs", "1", "--dask", address, cwd=tmp_path,
+                       timeout=60)
+        took = time.monotonic() - t0
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr and "Exception" not in proc.stderr, proc.stderr
+    assert f"--dask: cannot connect to the Dask scheduler at {address}" in proc.stderr
+    lines = proc.stderr.splitlines()
+    assert lines[-1].startswith("marknav evaluate: error: --dask")  # the one message, last
+    assert all(line.startswith("evaluate slalom: 0/1 runs done") for line in lines[:-1]), lines
+    assert took < 30  # 3 s for the scheduler to answer, plus start-up on a loaded machine
+
+
+def test_the_event_log_never_keeps_half_a_record_when_the_disk_fills(tmp_path: Path) -> None:
+    """A file that stops taking bytes in the middle of a record (a full disk; here the file
+    size limit, RLIMIT_FSIZE: the write takes what fits, then EFBIG): the log ends with the last
+    whole record, and says why it stopped."""
+    path = tmp_path / "e.jsonl"
+    code = ("import resource, sys\n"
+            "resource.setrlimit(resource.RLIMIT_FSIZE, (1000, 1000))\n"
+            "from marknav.runs.report import EventLog\n"
+            f"log = EventLog({str(path)!r})\n"
+            "for i in range(100):\n"
+            "    log.write(i * 0.05, 'tick', n=i, pad='x' * 37)\n"
+            "log.close()\n"
+            "print(log.error)\n")
+    proc = subprocess.run([sys.executable, "-c", code], env=ENV, capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert "File too large" in proc.stdout
+    data = path.read_text()
+    assert 0 < len(data) <= 1000 and data.endswith("\n"), data[-80:]
+    records = [json.loads(line) for line in data.splitlines()]
+    assert [r["n"] for r in records] == list(range(len(records)))
+
+
+# --- serve-robot under a crowd of junk clients ---
+
+JUNK_CLIENTS = 200
+
+
+def _junk_client(port: int, k: int, stop: threading.Event) -> None:
+    """Connect again and again; half say nothing, half send random bytes (never OI Start
+    or a telnet command first): each kept open until the server closes it."""
+    rng = random.Random(k)
+    while not stop.is_set():
+        try:
+            with socket.create_connection(("127.0.0.1", port), timeout=2) as s:
+                if k % 2:
+                    noise = bytearray(rng.randbytes(48))
+                    noise[0] = rng.choice([b for b in range(256) if b not in (128, 255)])
+                    s.sendall(bytes(noise))
+                s.settimeout(0.2)
+                while not stop.is_set():
+                    try:
+                        if s.recv(4096) == b"":
+                            break
+                    except TimeoutError:
+                        continue
+        except OSError:
+            time.sleep(0.05)
+
+
+def heard_among_junk(url: str, port: int, junk: int = JUNK_CLIENTS) -> float:
+    """Seconds from a real client's connect to the robot's first answer, while ``junk`` junk
+    clients keep connecting to the same bridge."""
+    import serial
+
+    stop = threading.Event()
+    threads = [threading.Thread(target=_junk_client, args=(port, k, stop), daemon=True)
+               for k in range(junk)]
+    for t in threads:
+        t.start()
+    try:
+        time.sleep(1.0)  # the crowd is there first
+        t0 = time.monotonic()
+        port_ = serial.serial_for_url(url, baudrate=115200, timeout=0.1)
+        try:
+            port_.write(oi.start() + oi.safe() + oi.sensors(7, model=oi.Model.CREATE2))
+            got = b""
+            while not got and time.monotonic() - t0 < 90:
+                got = port_.read(1)
+            return time.monotonic() - t0 if got else math.inf
+        finally:
+            port_.close()
+    finally:
+        stop.set()
+        for t in threads:
+            t.join(timeout=5)
+
+
+def test_serve_robot_hears_a_real_client_among_200_junk_clients(tmp_path: Path) -> None:
+    """The sweep measured up to 62 s (a listen backlog of 2 overflowed: the real client's
+    connection attempts were dropped and retried after 1, 3, 7 … s; the first junk connection
+    held the robot). Junk is now dropped fast and the real client answered at once."""
+    proc = spawn("serve-robot", "--sim", "--port", "0", cwd=tmp_path)
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()
+        url = line.split(" at ")[-1].strip()
+        assert url.startswith("rfc2217://"), line
+        heard = heard_among_junk(url, int(url.rsplit(":", 1)[1]))
+        print(f"serve-robot: a real client heard after {heard:.3f} s among {JUNK_CLIENTS} "
+              "junk clients")
+        # ≈ 0.4 s (pyserial's RFC 2217 negotiation alone: ≈ 0.35 s); the issue asks for 2 s,
+        # this allows for a loaded CI machine
+        assert heard < 5.0, heard
+    finally:
+        proc.send_signal(signal.SIGINT)
+        code, _out, err = finish(proc, 30)
+    assert code == 130, err
+    assert "Traceback" not in err
+
+
+# --- the signal sweep: SIGINT/SIGTERM at random moments of a whole `run` ---
+
+SWEEP_MOMENTS = int(os.environ.get("MARKNAV_SWEEP_MOMENTS", "14"))
+
+
+def _log_has(events: Path, kind: str) -> bool:
+    """The event log's last few records include one of ``kind``."""
+    try:
+        with open(events, "rb") as fh:
+            fh.seek(max(0, os.path.getsize(events) - 2000))
+            return f'"kind": "{kind}"'.encode() in fh.read()
+    except OSError:
+        return False
+
+
+def _sweep_run(tmp_path: Path, k: int, anchor: str, offset: float, sig: int
+               ) -> tuple[int, str, bool, float]:
+    """``run`` the slalom and signal it ``offset`` s after ``anchor``: "start" (marknav's first
+    line ran: its entry point imported :mod:`marknav.core.signals`), "events" (the event log
+    appeared: the run is starting), "tick" (the loop runs), "end" (the log's end record: the
+    final write is under
+    way), "report" (the report is written: the command is returning), "never". Exit code,
+    stderr, whether it was still running when signalled, and how soon it ended after that."""
+    report = tmp_path / f"r{k}.json"
+    events = tmp_path / f"r{k}.events.jsonl"
+    proc = subprocess.Popen([sys.executable, "-X", "importtime", "-m", "marknav", "run",
+                             str(SLALOM), "--tree", "none", "--report", str(report),
+                             "--max-time", "1"], cwd=tmp_path, env=ENV, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    lines: list[str] = []
+    started = threading.Event()
+
+    def read_stderr() -> None:  # -X importtime: one line per import, as it finishes
+        assert proc.stderr is not None
+        for line in proc.stderr:
+            lines.append(line)
+            if line.rstrip().endswith(" marknav.core.signals"):
+                started.set()
+
+    reader = threading.Thread(target=read_stderr, daemon=True)
+    reader.start()
+    seen = {"start": started.is_set, "events": events.exists,
+            "tick": lambda: _log_has(events, "tick"), "end": lambda: _log_has(events, "end"),
+            "report": report.exists,
+            "never": lambda: False}[anchor]
+    running = False
+    exited_within = math.inf  # seconds from the signal to the process's end
+    if anchor != "never":
+        deadline = time.monotonic() + 60
+        while not seen() and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.002)
+        time.sleep(offset)
+        running = proc.poll() is None and not _zombie(proc.pid)
+        if running:
+            proc.send_signal(sig)
+            sent = time.monotonic()
+            while proc.poll() is None and not _zombie(proc.pid) and time.monotonic() < sent + 1:
+                time.sleep(0.001)
+            exited_within = time.monotonic() - sent
+    try:
+        proc.wait(90)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    reader.join(10)
+    err = "".join(ln for ln in lines if not ln.startswith("import time:"))
+    return proc.returncode, err, running, exited_within
+
+
+def _zombie(pid: int) -> bool:
+    """The process has ended (its exit code is set) but was not collected yet (Linux)."""
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii") as fh:
+            return fh.read().rsplit(")", 1)[1].split()[0] == "Z"
+    except (OSError, IndexError):
+        return False
+
+
+def test_signal_sweep_over_the_whole_life_of_a_run(tmp_path: Path) -> None:
+    """A signal at any moment of ``run`` — start-up, reading and checking the mission, the run,
+    the final write, the exit — ends it with 130 and no traceback; once the mission was read,
+    the report and the log exist, the log ends with its ``end`` record and, where the simulated
+    robot had been started, its wheels were left at 0. The moments are random within each
+    part of the run's life (found by what the run has written so far), from marknav's first
+    line on: the interpreter's own start-up before it (≈ 15 ms idle, over 100 ms on a loaded
+    machine) is Python's, not marknav's (docs/architecture.md, Signals)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    seed = int(os.environ.get("MARKNAV_SWEEP_SEED", random.randrange(10**6)))
+    rng = random.Random(seed)
+    code, err, _, _ = _sweep_run(tmp_path, 0, "never", 0.0, signal.SIGINT)
+    assert code == 1 and "time limit" in err, err  # undisturbed, the run fails its time limit
+    parts = [("start", 0.0, 0.3)] * 3 + [("start", 0.3, 1.5)] * 2 + [("events", 0.0, 0.3)] * 2
+    parts += [("tick", 0.0, 0.15)] * 3 + [("end", 0.0, 0.01)] * 2 + [("report", 0.0, 0.005)] * 2
+    while len(parts) < SWEEP_MOMENTS:
+        parts.append(rng.choice(parts))
+    moments = [(anchor, rng.uniform(lo, hi)) for anchor, lo, hi in parts[:SWEEP_MOMENTS]]
+    sigs = [signal.SIGINT if k % 2 else signal.SIGTERM for k in range(len(moments))]
+    with ThreadPoolExecutor(2) as pool:
+        results = list(pool.map(lambda k: _sweep_run(tmp_path, k + 1, *moments[k], sigs[k]),
+                                range(len(moments))))
+    phases: Counter[str] = Counter()
+    for k, ((anchor, offset), (code, err, running, exited_within)) in enumerate(
+            zip(moments, results, strict=True), start=1):
+        where = f"seed {seed}, moment {k}: {offset:.3f} s after {anchor}, {sigs[k - 1]!r}\n{err}"
+        assert "Traceback" not in err and "Exception" not in err, where
+        report = tmp_path / f"r{k}.json"
+        events = tmp_path / f"r{k}.events.jsonl"
+        if not running or (code == 1 and exited_within < 0.05 and report.exists()
+                           and "interrupted" not in err):
+            # It had ended, or was ending: os._exit called, the kernel freeing it (≈ 10 ms;
+            # a signal is not delivered then and the exit code is set): the run's own result.
+            assert code == 1 and "time limit" in err, where
+            phases["after the process ended"] += 1
+            continue
+        assert code == 130, where
+        if not report.exists():  # signalled before the mission was read: nothing written
+            assert not events.exists() and "report:" not in err, where
+            phases["start-up or reading the mission"] += 1
+            continue
+        data = json.loads(report.read_text())
+        last = json.loads(events.read_text().splitlines()[-1])
+        assert last["kind"] == "end" and last["reason"] == data["reason"], where
+        if data.get("sim_final") is not None:
+            assert data["sim_final"]["wheels_mm_s"] == [0, 0], where
+        if data["reason"].startswith("interrupted") and data["reason"].endswith(
+                ("while checking the mission", "while preparing the detector",
+                 "while starting")):
+            phases["checks and start"] += 1
+        elif data["reason"].startswith("interrupted"):
+            phases["the run"] += 1
+        else:  # the verdict was reached: it stands, the exit code says "signalled"
+            assert (data["outcome"], data["reason"]) == ("failed", "time limit: 1 s"), where
+            phases["final write or exit"] += 1
+    print(f"signal sweep, seed {seed}: {len(moments)} moments: {dict(phases)}")
+    assert sum(phases.values()) == len(moments)

@@ -14,6 +14,7 @@ import contextlib
 import io
 import math
 import os
+import re
 import resource
 import struct
 import tempfile
@@ -21,6 +22,7 @@ import zlib
 from collections.abc import Iterator
 from datetime import timedelta
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -244,3 +246,94 @@ def test_fuzz_cli_arguments(workdir: Path, command: str, files: list[str],
     assert "Traceback" not in err.getvalue()
     if command == "run":  # every run here has bad input: a missing or invalid mission
         assert code == 2, (argv, err.getvalue())
+
+
+# --- whole missions and worlds through the command line (issue 31) ---------------------------
+
+MISSIONS = sorted((ROOT / "missions").glob("*.yaml"))
+#: A mutation makes a file wrong in one place: a value of the wrong type where any other is
+#: expected (a list where a name is used as a key: the TypeError of issue 31 B3), or a key no
+#: schema has. Every one must be refused, exit 2, at FILE:LINE, never with a traceback.
+MUTATION_EXAMPLES = int(os.environ.get("MARKNAV_FUZZ_MUTATIONS", "150"))
+MUTATE = settings(max_examples=MUTATION_EXAMPLES, deadline=None,
+                  suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
+                                         HealthCheck.function_scoped_fixture])
+
+
+def _with_absolute_world(path: Path) -> tuple[Any, Path | None]:
+    data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    world = None
+    if isinstance(data.get("sim"), dict) and data["sim"].get("world"):
+        world = (path.parent / data["sim"]["world"]).resolve()
+        data["sim"]["world"] = str(world)
+    return data, world
+
+
+def _nodes(tree: Any, at: tuple[Any, ...] = ()) -> Iterator[tuple[Any, ...]]:
+    """The path of every mapping value and list item."""
+    if isinstance(tree, dict):
+        for k, v in tree.items():
+            yield (*at, k)
+            yield from _nodes(v, (*at, k))
+    elif isinstance(tree, list):
+        for i, v in enumerate(tree):
+            yield (*at, i)
+            yield from _nodes(v, (*at, i))
+
+
+def _wrong_types(value: Any) -> list[Any]:
+    """Values of another type than ``value``, none of which a schema would coerce into it."""
+    if isinstance(value, bool):
+        return [[value], {"x": value}, "maybe"]
+    if isinstance(value, (int, float)):
+        return [[value], {"value": value}, "many", None]
+    if isinstance(value, str):
+        return [[value], {value: value}, [[value]]]
+    if isinstance(value, list):
+        return [{"x": value}, 7, True]
+    if isinstance(value, dict):
+        return [[value], [list(value)], 7]
+    return [[value], {"x": 1}]
+
+
+@st.composite
+def mutated(draw: st.DrawFn) -> tuple[str, Any, Path | None]:
+    """One mission or world file from missions/, wrong in one place: ('mission'|'world', the
+    data, the mission's world)."""
+    mission = draw(st.sampled_from(MISSIONS))
+    data, world = _with_absolute_world(mission)
+    kind = draw(st.sampled_from(["mission", "world"] if world is not None else ["mission"]))
+    if kind == "world":
+        assert world is not None
+        data = yaml.safe_load(world.read_text(encoding="utf-8"))
+    at = draw(st.sampled_from(list(_nodes(data))))
+    parent = data
+    for part in at[:-1]:
+        parent = parent[part]
+    if draw(st.booleans()) and isinstance(parent, dict):
+        parent[draw(st.sampled_from(["colour_", "sides", "x_mn", "Model", "unknown"]))] = 1
+    else:
+        parent[at[-1]] = draw(st.sampled_from(_wrong_types(parent[at[-1]])))
+    return kind, data, world
+
+
+@MUTATE
+@given(case=mutated())
+def test_fuzz_mutated_missions_and_worlds_exit_2_at_file_and_line(
+        case: tuple[str, Any, Path | None], tmp_path_factory: pytest.TempPathFactory) -> None:
+    kind, data, world = case
+    folder = tmp_path_factory.mktemp("mutated")
+    bad = folder / f"{kind}.yaml"
+    bad.write_text(yaml.safe_dump(data, allow_unicode=True), encoding="utf-8")
+    if kind == "mission":
+        argv = ["validate", str(bad)]
+    else:  # the world through the mission it belongs to, as 'run --world' would load it
+        mission = next(m for m in MISSIONS if _with_absolute_world(m)[1] == world)
+        argv = ["validate", str(mission), "--world", str(bad)]
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        code = main(argv)
+    text = err.getvalue()
+    assert code == 2, (argv, bad.read_text(), text)
+    assert "Traceback" not in text, text
+    assert re.search(re.escape(str(bad)) + r":\d+:", text), (bad.read_text(), text)

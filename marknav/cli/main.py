@@ -201,13 +201,16 @@ def main(argv: Sequence[str] | None = None, *, exiting: bool = False) -> int:
     except KeyboardInterrupt:  # before a command started (importing, parsing)
         print("marknav: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except BaseException as exc:
+        if signals.signalled() is None or isinstance(exc, SystemExit):
+            raise
+        # A library that caught the signal's KeyboardInterrupt mid-way and raised its own
+        # error instead (an extension module's import): the signal is what happened.
+        log.debug("%s after %s", type(exc).__name__, signals.signalled(), exc_info=exc)
+        print("marknav: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     finally:
         signals.uninstall(exiting=exiting)
-
-
-def entry() -> None:
-    """The ``marknav`` console script and ``python -m marknav``."""
-    sys.exit(main(exiting=True))
 
 
 def _main(argv: Sequence[str] | None) -> int:

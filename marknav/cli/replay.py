@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 from marknav.core.errors import InputError
+from marknav.core.inputfile import check_regular_file
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -149,8 +150,7 @@ def view(args: argparse.Namespace) -> int:
     require_rerun("view")  # also sets RERUN_ANALYTICS=0 unless the user chose otherwise
     path = Path(args.run)
     if path.suffix == ".rrd":
-        if not path.is_file():
-            raise InputError("no such file", file=str(path))
+        check_regular_file(path, what="a Rerun recording (.rrd)")
         if args.save is not None:
             shutil.copyfile(path, args.save)
             print(f"recording: {args.save}")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from marknav.cli.validate import SET_HELP, set_item
 from marknav.core.errors import EXIT_INTERRUPTED, InputError, MissionFailed
@@ -12,6 +13,10 @@ from marknav.core.errors import EXIT_INTERRUPTED, InputError, MissionFailed
 #: Shown when preparing takes over a second: building the compiled loops on a cold cache (the
 #: first run after installing: 10–40 s), or loading them on a very busy machine.
 PREPARING = "preparing the detector (the first run compiles it: up to a minute)…"
+
+if TYPE_CHECKING:
+    from marknav.missions.schema import Mission
+    from marknav.runs.run import RunRequest
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -77,7 +82,7 @@ def check_outputs(args: argparse.Namespace) -> None:
     from marknav.core.outputs import check_output_file
 
     for option, path in (("--report", args.report), ("--events", args.events),
-                         ("--plot", args.plot)):
+                         ("--plot", args.plot), ("--record", args.record)):
         if path is not None:
             check_output_file(path, option=option)
     if args.plot is not None and args.robot != "sim":
@@ -86,13 +91,14 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from marknav.core.errors import InputErrors
     from marknav.core.outputs import printable
     from marknav.missions.examples import mission_path
     from marknav.missions.overrides import parse_overrides
-    from marknav.runs.checks import checked_mission
+    from marknav.runs.checks import loaded_mission_problems, read_mission
     from marknav.runs.progress import slow_status
     from marknav.runs.report import reached
-    from marknav.runs.run import RunRequest, default_run_dir, execute, prepare, summary
+    from marknav.runs.run import execute, prepare, summary, write_interrupted
 
     if args.max_time is not None and not args.max_time > 0:
         raise InputError(f"must be positive, got {args.max_time}", field="--max-time")
@@ -110,49 +116,58 @@ def run(args: argparse.Namespace) -> int:
     overrides = parse_overrides(args.overrides)
     args.mission = mission_path(args.mission)
     world = None if args.world in (None, "generate", "random") else args.world
-    # Everything 'marknav validate' checks, before anything starts; then only the hardware.
-    mission = checked_mission(args.mission, overrides, world=world)
-    report_path: Path = args.report or default_run_dir(mission) / "report.json"
-    events_path: Path = args.events or report_path.with_name(report_path.stem + ".events.jsonl")
-    if args.events is None:
-        from marknav.core.outputs import check_output_file
+    requests: list[RunRequest] = []
 
-        check_output_file(events_path, option="--events")
-    generated = args.world in ("generate", "random")
-    req = RunRequest(
-        mission=mission, world=None if generated else args.world, robot=args.robot,
-        camera=args.camera, generate_world=generated, randomise=args.world == "random",
-        tree_style=args.tree, out=sys.stdout, report_path=report_path,
-        events_path=events_path, plot_path=args.plot, seed=args.seed,
-        realtime=args.realtime, max_time_s=args.max_time, frames_hz=args.frames,
-        viewer=args.viewer, record_path=args.record,
-    )
+    def request() -> RunRequest:
+        """The run's request, made once: the default report path is a new folder."""
+        if not requests:
+            requests.append(_request(args, mission))
+        return requests[0]
 
     def written() -> str:
-        names = {report_path: "report", events_path: "events", args.plot: "plot"}
-        order = [report_path, events_path, args.plot]
+        req = request()
+        names = {req.report_path: "report", req.events_path: "events", args.plot: "plot"}
+        order = [req.report_path, req.events_path, args.plot]
         shown = sorted(req.written, key=lambda p: order.index(p) if p in order else 9)
         return "  ".join(f"{names[p]}: {printable(str(p))}" for p in shown)
 
     def write_errors() -> None:
-        for error in req.write_errors:
+        for error in request().write_errors:
             print(f"marknav run: error: {printable(error)}", file=sys.stderr)
 
-    with slow_status(PREPARING, sys.stderr):
-        prepare(simulator=args.robot == "sim")
+    # Everything 'marknav validate' checks, before anything starts; then only the hardware.
+    # Once the file is read, a signal at any moment leaves a report and an event log.
+    mission = read_mission(args.mission, overrides, world=world)
+    stage = "while checking the mission"
+    started = False
     try:
+        problems = loaded_mission_problems(mission, overrides, world=world)
+        if problems:
+            raise InputErrors(problems)
+        req = request()
+        stage = "while preparing the detector"
+        with slow_status(PREPARING, sys.stderr):
+            prepare(simulator=args.robot == "sim")
+        stage, started = "while starting", True
         result = execute(req)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
+        req = request()
+        when = stage
+        early = not req.finishing  # execute() had not got as far as writing its files
+        if early:
+            write_interrupted(req, exc, when)
         write_errors()
+        state = "wheels stopped" if started else "nothing was started"
         # the whole message: returning (not re-raising) keeps the CLI's generic
         # "interrupted" line from repeating it
-        print(f"marknav run: interrupted; wheels stopped; {written() or 'nothing written'}",
-              file=sys.stderr)
+        print(f"marknav run: interrupted{' ' + when if early else ''}; {state}; "
+              f"{written() or 'nothing written'}", file=sys.stderr)
         return EXIT_INTERRUPTED
     except InputError:
-        write_errors()
-        if req.written:
-            print(f"marknav run: did not start; {written()}", file=sys.stderr)
+        if requests:
+            write_errors()
+            if requests[0].written:
+                print(f"marknav run: did not start; {written()}", file=sys.stderr)
         raise
     report = result.report
     print(summary(report))
@@ -183,3 +198,24 @@ def run(args: argparse.Namespace) -> int:
     if report.outcome != "success":
         raise MissionFailed(f"{report.outcome}: {report.reason}")
     return 0
+
+
+def _request(args: argparse.Namespace, mission: Mission) -> RunRequest:
+    """What to run, and where its files go (the default: a new folder under runs/, created
+    now; its event log checked as the user's own paths were)."""
+    from marknav.core.outputs import check_output_file
+    from marknav.runs.run import RunRequest, default_run_dir
+
+    report_path: Path = args.report or default_run_dir(mission) / "report.json"
+    events_path: Path = args.events or report_path.with_name(report_path.stem + ".events.jsonl")
+    if args.events is None:
+        check_output_file(events_path, option="--events")
+    generated = args.world in ("generate", "random")
+    return RunRequest(
+        mission=mission, world=None if generated else args.world, robot=args.robot,
+        camera=args.camera, generate_world=generated, randomise=args.world == "random",
+        tree_style=args.tree, out=sys.stdout, report_path=report_path,
+        events_path=events_path, plot_path=args.plot, seed=args.seed,
+        realtime=args.realtime, max_time_s=args.max_time, frames_hz=args.frames,
+        viewer=args.viewer, record_path=args.record,
+    )

@@ -7,6 +7,11 @@ hang the open — and a file larger than the limit is refused without reading th
 :func:`read_text` adds UTF-8 decoding (a leading byte-order mark, as spreadsheets write it, is
 dropped) and refuses control characters, naming the line and column of the first one.
 Every refusal is an :class:`~marknav.core.errors.InputError` (exit 2) naming the file.
+
+Files that other libraries open by name (a video through OpenCV) are checked first by
+:func:`check_regular_file`, the same test without the read; :func:`stat_path` is how any path the
+user named is looked at (``Path.exists()`` raises ``OSError`` for a name longer than the OS takes,
+a loop of links or a folder without permission: here those are input errors naming the path).
 """
 
 from __future__ import annotations
@@ -19,7 +24,8 @@ from pathlib import Path
 
 from marknav.core.errors import InputError
 
-__all__ = ["MAX_IMAGE_BYTES", "MAX_TABLE_BYTES", "MAX_YAML_BYTES", "read_bytes", "read_text"]
+__all__ = ["MAX_IMAGE_BYTES", "MAX_LOG_BYTES", "MAX_TABLE_BYTES", "MAX_YAML_BYTES",
+           "check_regular_file", "read_bytes", "read_text", "stat_path"]
 
 #: Missions and worlds: a 50-waypoint mission is ~3 kB, a generated world ~20 kB (PyYAML reads
 #: about 100 kB a second on a slow machine, so this bounds the time too).
@@ -28,6 +34,9 @@ MAX_YAML_BYTES = 256 * 1024
 MAX_TABLE_BYTES = 1024 * 1024
 #: Encoded images (a 12-megapixel PNG is ~20 MB).
 MAX_IMAGE_BYTES = 64 * 1024 * 1024
+#: Run logs (JSON Lines): a simulated slalom writes ~1 MB a minute of mission time, so an hour of
+#: driving fits; ``replay`` keeps every record in memory anyway.
+MAX_LOG_BYTES = 256 * 1024 * 1024
 
 _BOM = "\ufeff"
 # C0 controls except TAB, LF, CR; DEL; C1 controls. (YAML and CSV text never needs them.)
@@ -52,21 +61,36 @@ def _size(n: int) -> str:
     return f"{n / (1024 * 1024):g} MiB" if n >= 1024 * 1024 else f"{n} bytes"
 
 
-def read_bytes(path: str | Path, *, limit: int, what: str = "a file") -> bytes:
-    """The whole content of the regular file ``path`` (at most ``limit`` bytes)."""
-    name = str(path)
+def _no_nul(name: str) -> None:
     if "\x00" in name:
-        raise InputError("the file name contains a NUL character", file=name.replace("\x00",
-                                                                                      "\\0"))
+        raise InputError("the file name contains a NUL character",
+                         file=name.replace("\x00", "\\0"))
+
+
+def stat_path(path: str | Path, *, field: str | None = None) -> os.stat_result | None:
+    """``os.stat`` of a path the user named (links followed); ``None`` when nothing is there.
+    Any other OS error (a name too long, a loop of links, a folder without permission) is an
+    :class:`InputError` naming the path (and ``field``, the option or key that gave it)."""
+    name = str(path)
+    _no_nul(name)
     try:
-        st = os.stat(name)
-    except FileNotFoundError:
-        raise InputError("no such file", file=name) from None
+        return os.stat(name)
+    except (FileNotFoundError, NotADirectoryError):
+        return None
     except OSError as exc:
-        raise InputError(f"cannot read: {exc.strerror or exc}", file=name) from None
+        raise InputError(f"cannot use this path: {exc.strerror or exc}", file=name,
+                         field=field) from None
+
+
+def _open_regular(name: str, what: str, limit: int | None) -> int:
+    """An O_NONBLOCK descriptor of the regular file ``name`` (a FIFO with no writer does not
+    hang the open); everything else refused, before and after opening."""
+    st = stat_path(name)
+    if st is None:
+        raise InputError("no such file", file=name)
     if not stat.S_ISREG(st.st_mode):
         raise InputError(f"is {_kind(st.st_mode)}, expected {what}", file=name)
-    if st.st_size > limit:
+    if limit is not None and st.st_size > limit:
         raise InputError(f"too large for {what}: {_size(st.st_size)} (limit {_size(limit)})",
                          file=name)
     try:
@@ -75,8 +99,27 @@ def read_bytes(path: str | Path, *, limit: int, what: str = "a file") -> bytes:
         raise InputError(f"cannot read: {exc.strerror or exc}", file=name) from None
     try:
         st = os.fstat(fd)  # the file opened, not a name swapped in since the stat above
-        if not stat.S_ISREG(st.st_mode):
-            raise InputError(f"is {_kind(st.st_mode)}, expected {what}", file=name)
+    except OSError as exc:
+        os.close(fd)
+        raise InputError(f"cannot read: {exc.strerror or exc}", file=name) from None
+    if not stat.S_ISREG(st.st_mode):
+        os.close(fd)
+        raise InputError(f"is {_kind(st.st_mode)}, expected {what}", file=name)
+    return fd
+
+
+def check_regular_file(path: str | Path, *, what: str = "a file") -> None:
+    """Refuse (:class:`InputError`) anything but a readable regular file, without blocking and
+    without reading it: for files a library opens by name (OpenCV's video reader blocks for
+    ever in ``open()`` on a FIFO with no writer, where no signal can end it)."""
+    os.close(_open_regular(str(path), what, None))
+
+
+def read_bytes(path: str | Path, *, limit: int, what: str = "a file") -> bytes:
+    """The whole content of the regular file ``path`` (at most ``limit`` bytes)."""
+    name = str(path)
+    fd = _open_regular(name, what, limit)
+    try:
         chunks: list[bytes] = []
         total = 0
         while True:

@@ -1,7 +1,8 @@
 """One signal policy for the whole life of a ``marknav`` process.
 
-:func:`install` (called first thing by :func:`marknav.cli.main.main`, before the sub-commands
-are even imported) routes SIGINT and SIGTERM to one handler:
+:func:`install` (called first thing by the entry point, :mod:`marknav.__main__`, before the
+command line is even imported; again by :func:`marknav.cli.main.main`) routes SIGINT and SIGTERM
+to one handler:
 
 - The **first** signal raises :class:`Interrupted` (a ``KeyboardInterrupt``) in the main thread,
   wherever it is — importing, loading, connecting, in the control loop, plotting. The code on
@@ -13,24 +14,33 @@ are even imported) routes SIGINT and SIGTERM to one handler:
   interrupt is exactly what must not be lost (a second Ctrl-C 0.1 s after the first used to
   leave no report). The clean-up is bounded (joins and port writes have timeouts).
 
+- **After the command returned** (its files written and closed), the entry point ends the
+  process itself with :func:`exit_process`: a signal then is noted, not raised, and the exit
+  code becomes 130 — the interpreter's own teardown, during which Python handles no signal
+  (a Ctrl-C there used to be ignored: exit 0), never runs.
+
 Library code that runs outside the CLI (tests, evaluation workers) gets the same policy for the
 duration of a run from :func:`interrupting`.
+
+This module imports nothing heavy (no ``logging``): it is loaded in the first milliseconds.
 """
 
 from __future__ import annotations
 
-import logging
+import atexit
 import os
 import signal
+import sys
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from types import FrameType
-from typing import Any
+from typing import Any, NoReturn
 
-__all__ = ["Interrupted", "deferred", "install", "installed", "interrupting", "uninstall"]
+from marknav.core.errors import EXIT_INTERRUPTED
 
-log = logging.getLogger(__name__)
+__all__ = ["Interrupted", "deferred", "exit_process", "install", "installed", "interrupting",
+           "signalled", "uninstall"]
 
 _SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -50,6 +60,7 @@ class _State:
         self.first: str | None = None
         self.pending: str | None = None
         self.deferring = 0
+        self.late: str | None = None  # a signal after the command returned
 
 
 _state = _State()
@@ -67,6 +78,11 @@ def _handler(signum: int, frame: FrameType | None) -> None:
         _state.pending = name
         return
     raise Interrupted(name)
+
+
+def _late_handler(signum: int, frame: FrameType | None) -> None:
+    if _state.late is None:
+        _state.late = signal.Signals(signum).name
 
 
 def _main_thread() -> bool:
@@ -88,17 +104,23 @@ def install() -> bool:
 
 def uninstall(*, exiting: bool = False) -> None:
     """Give the signals back to whoever had them before :func:`install` — or, when the process
-    is ``exiting`` (the command line's own entry point), ignore them: a second Ctrl-C that
-    arrives while the interpreter shuts down must not turn exit 130 into death by signal."""
+    is ``exiting`` (the command line's own entry point, which ends with :func:`exit_process`),
+    only note them: nothing may be raised once the command has returned, and a signal then
+    still ends the process with 130."""
     if _state.installed and _main_thread():
         for s, previous in _state.previous.items():
-            signal.signal(s, signal.SIG_IGN if exiting else previous)
+            signal.signal(s, _late_handler if exiting else previous)
         _state.installed = False
         _state.previous = {}
 
 
 def installed() -> bool:
     return _state.installed
+
+
+def signalled() -> str | None:
+    """The first signal received since :func:`install`, or None."""
+    return _state.first
 
 
 @contextmanager
@@ -126,3 +148,31 @@ def interrupting() -> Iterator[None]:
         yield
     finally:
         uninstall()
+
+
+def exit_process(code: int) -> NoReturn:
+    """End the process now: non-daemon threads joined (a signal ends the wait), ``atexit``
+    handlers run, stdout and stderr flushed, then ``os._exit`` — with ``code``, or 130 if a
+    signal arrived after the command returned. The command's files are already complete: this
+    skips only the interpreter's teardown of its modules (a fraction of a second, during which
+    Python runs no signal handler)."""
+    if _main_thread():
+        for s in _SIGNALS:  # the command line's uninstall() did this; a library caller too
+            if signal.getsignal(s) is not _late_handler:
+                signal.signal(s, _late_handler)
+    me = threading.current_thread()
+    for t in threading.enumerate():
+        while t is not me and not t.daemon and t.is_alive() and _state.late is None:
+            t.join(0.1)
+    try:
+        atexit._run_exitfuncs()
+    finally:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                if stream is not None:
+                    stream.flush()
+            except (OSError, ValueError):  # a closed pipe or stream: nothing more to say
+                pass
+        if _state.late is not None and code != EXIT_INTERRUPTED:
+            code = EXIT_INTERRUPTED
+        os._exit(code)

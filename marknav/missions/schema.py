@@ -22,7 +22,7 @@ from __future__ import annotations
 import difflib
 import math
 import unicodedata
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -152,6 +152,13 @@ class Marks(BaseModel):
         return colours
 
 
+def known_key(value: Any, table: Mapping[str, Any]) -> str | None:
+    """``value`` if it is one of ``table``'s names, else None. A value from a file is checked
+    for its type before it is used as a key (a list there is unhashable: ``TypeError``); what is
+    wrong with it is the field's own validation error."""
+    return value if isinstance(value, str) and value in table else None
+
+
 class Robot(BaseModel):
     """The robot base."""
 
@@ -197,8 +204,8 @@ class Robot(BaseModel):
     @classmethod
     def _wheel_base_of_model(cls, data: Any) -> Any:
         if isinstance(data, dict) and "wheel_base_mm" not in data:
-            model = data.get("model", "create2")
-            if model in WHEEL_BASE_MM:
+            model = known_key(data.get("model", "create2"), WHEEL_BASE_MM)
+            if model is not None:  # else the model's own error says what is wrong
                 return {**data, "wheel_base_mm": WHEEL_BASE_MM[model]}
         return data
 
@@ -357,10 +364,11 @@ class Camera(BaseModel):
         # (camera.range.a), without the union tag pydantic would insert.
         if isinstance(value, dict):
             model = value.get("model")
-            if isinstance(model, str) and model in _RANGE_MODELS:
-                problems = model_problems(_RANGE_MODELS[model], value)
+            known = known_key(model, _RANGE_MODELS)
+            if known is not None:
+                problems = model_problems(_RANGE_MODELS[known], value)
                 _raise("Camera", problems)
-                return _RANGE_MODELS[model].model_validate(value)
+                return _RANGE_MODELS[known].model_validate(value)
             if model is None:
                 problem = _problem("missing", "missing 'model': power or pinhole", ("model",), None)
             else:

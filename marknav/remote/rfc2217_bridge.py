@@ -9,14 +9,19 @@ flow control, purge) is pyserial's :class:`serial.rfc2217.PortManager`; this mod
 bytes, escapes the telnet IAC byte (255 → 255 255, RFC 854) in robot→client data, and adds what a
 robot needs from a serial bridge:
 
-- **One client at a time.** Two programs writing OI commands into one robot interleave bytes. A
-  new connection while a client drives the robot *waits*: it may negotiate its line settings
-  (kept aside, not applied), but it takes over (the previous client closed, the robot stopped
-  first) only when its first OI byte is Start (128) — what every OI program sends first. A
-  control computer whose Wi-Fi dropped reconnects at once; a port scan, a stray telnet or 64
-  random bytes are closed without touching the running mission (no OI Start within
-  ``TAKEOVER_WAIT_S``, or another first byte: takeover refused). At most ``MAX_WAITING``
-  connections wait at a time.
+- **One client at a time, and only a client that speaks OI.** Two programs writing OI commands
+  into one robot interleave bytes. Every new connection is a *candidate*: it may negotiate its
+  line settings (kept aside, not applied), but it drives the robot (the previous client closed,
+  the robot stopped first) only when its first OI byte is Start (128) — what every OI program
+  sends first. A control computer whose Wi-Fi dropped reconnects at once; a port scan, a stray
+  telnet or 64 random bytes are closed without a byte reaching the robot: another first OI
+  byte or malformed telnet at once, silence after ``SILENT_DROP_S``, no OI Start within
+  ``TAKEOVER_WAIT_S``. At most ``MAX_WAITING`` candidates wait at a time; when they are all
+  there, a newcomer takes the place of the oldest one that has sent nothing yet. A crowd of
+  junk connections therefore cannot keep a real client from being heard (200 of them: the real
+  client's Start reaches the robot within a fraction of a second), and the listen backlog
+  (``LISTEN_BACKLOG``) is deep enough that the kernel does not drop its connection attempt (a
+  dropped SYN is retried after 1, 3, 7, 15 … s).
 - **Stop on silence.** OI spec, "Drive Direct": the robot keeps the last wheel command forever;
   nothing in it stops a command that is never followed by another. The driver's safety layer
   (the command watchdog) cannot help when the network itself is gone. So when the client
@@ -40,6 +45,7 @@ import contextlib
 import errno
 import logging
 import math
+import selectors
 import socket
 import threading
 import time
@@ -61,10 +67,18 @@ IAC = b"\xff"
 _ACCEPT_POLL_S = 0.1
 _RECV_POLL_S = 0.05
 _MODEM_POLL_S = 1.0
-#: A waiting connection must send OI Start (128) within this many seconds to take over.
+#: A candidate must send OI Start (128) within this many seconds to take over.
 TAKEOVER_WAIT_S = 5.0
-#: Connections that may wait to take over at once (more are closed at once).
-MAX_WAITING = 2
+#: A candidate that has sent not one byte this long after connecting is closed (s): a real
+#: client speaks at once (pyserial's RFC 2217 client negotiates its options as it connects; a
+#: raw ``socket://`` client sends OI Start), even over Wi-Fi (130-300 ms round trips).
+SILENT_DROP_S = 1.0
+#: Candidates that may wait at a time (a newcomer replaces the oldest silent one, or is closed).
+MAX_WAITING = 8
+#: Connections the kernel queues before they are accepted (a burst of junk must not fill it).
+LISTEN_BACKLOG = 128
+#: Connections that may wait for their first byte at once (a newcomer replaces the oldest).
+LOBBY_MAX = 256
 #: Longest telnet sub-option accepted (RFC 2217's are at most a few bytes; pyserial buffers them).
 MAX_SUBOPTION = 64
 
@@ -170,12 +184,12 @@ class _ShadowPort:
 class _Session:
     """One RFC 2217 client: a network→serial thread and a serial→network thread.
 
-    An *active* session owns the robot; a waiting one (``active=False``) only negotiates telnet
+    An *active* session owns the robot; a candidate (``active=False``) only negotiates telnet
     until its first OI byte, which must be Start (128) for it to take over.
     """
 
     def __init__(self, bridge: Rfc2217Bridge, conn: socket.socket, peer: str, *,
-                 active: bool = True) -> None:
+                 active: bool = True, first: bytes = b"") -> None:
         self.bridge = bridge
         self.conn = conn
         self.peer = peer
@@ -188,6 +202,8 @@ class _Session:
         self.shadow = None if active else _ShadowPort(bridge.port)
         port: Any = _ModemLines(bridge.port) if active else self.shadow
         self.started = time.monotonic()
+        self.spoke = False  # has sent bytes that parsed (telnet, or OI Start)
+        self._first = first  # bytes the lobby read before this session existed
         self.manager = serial.rfc2217.PortManager(port, self)
         self._threads = [
             threading.Thread(target=self._net_to_serial, name="rfc2217-in", daemon=True),
@@ -203,6 +219,15 @@ class _Session:
     def start(self) -> None:
         for t in self._threads:
             t.start()
+
+    def drop(self, reason: str) -> None:
+        """End a candidate without waiting for its threads (the caller may be the accept
+        loop): they see the closed connection and end by themselves."""
+        if not self._stop.is_set():
+            log.info("closing client %s: %s", self.peer, reason)
+        self._stop.set()
+        with contextlib.suppress(OSError):
+            self.conn.shutdown(socket.SHUT_RDWR)
 
     def close(self, reason: str) -> None:
         """End the session (idempotent); the robot is stopped by the network thread on its way
@@ -226,7 +251,7 @@ class _Session:
         try:
             while not self._stop.is_set():
                 try:
-                    data = self.conn.recv(4096)
+                    data, self._first = (self._first or self.conn.recv(4096)), b""
                 except TimeoutError:
                     data = None
                 except OSError as exc:
@@ -235,9 +260,11 @@ class _Session:
                 now = time.monotonic()
                 if data is None:
                     if not self.active.is_set():
+                        if not self.spoke and now - self.started > SILENT_DROP_S:
+                            why = f"sent nothing within {SILENT_DROP_S:g} s"
+                            break
                         if now - self.started > TAKEOVER_WAIT_S:
-                            why = (f"no OI Start (128) within {TAKEOVER_WAIT_S:g} s while "
-                                   f"{bridge.client} drives the robot: takeover refused")
+                            why = f"no OI Start (128) within {TAKEOVER_WAIT_S:g} s"
                             break
                         continue
                     idle = bridge.idle_stop_s
@@ -263,12 +290,12 @@ class _Session:
                     break
                 if payload and not self.active.is_set():
                     if payload[0] != oi.Opcode.START:
-                        why = (f"first OI byte {payload[0]} is not Start (128) while "
-                               f"{bridge.client} drives the robot: takeover refused")
+                        why = f"first OI byte {payload[0]} is not Start (128)"
                         break
                     if not bridge.promote(self):
                         why = "bridge stopping"
                         break
+                self.spoke = True
                 if payload:
                     self.framer.feed(payload)
                     if not bridge.write_serial(payload):
@@ -287,9 +314,12 @@ class _Session:
                     bridge.write_serial(pad)
                 bridge.stop_robot(f"{why} ({self.peer})")
             else:
-                log.warning("closing client %s: %s", self.peer, why)
+                log.info("closing client %s: %s", self.peer, why)
             with contextlib.suppress(OSError):
                 self.conn.shutdown(socket.SHUT_RDWR)
+            if not self.active.is_set():  # a candidate: nobody joins it, it closes itself
+                with contextlib.suppress(OSError):
+                    self.conn.close()
             self.ended.set()
 
     def _serial_to_net(self) -> None:
@@ -363,7 +393,7 @@ class Rfc2217Bridge:
         self._listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
             self._listener.bind((host.strip("[]"), tcp_port))
-            self._listener.listen(2)
+            self._listener.listen(LISTEN_BACKLOG)
         except OSError as exc:
             self._listener.close()
             why = "address already in use" if exc.errno == errno.EADDRINUSE else str(exc)
@@ -435,22 +465,80 @@ class Rfc2217Bridge:
     # --- serving ------------------------------------------------------------------------------
 
     def serve_forever(self) -> None:
-        """Accept clients until :meth:`close` or a device failure (see :attr:`device_error`)."""
-        try:
-            while not self._stop.is_set():
-                try:
-                    conn, addr = self._listener.accept()
-                except TimeoutError:
-                    if self.client is None:
+        """Accept clients until :meth:`close` or a device failure (see :attr:`device_error`).
+
+        New connections wait in a *lobby* served by this one thread (no thread, no telnet
+        state per connection) until their first bytes: telnet (IAC, 255) or OI Start (128)
+        make a candidate session (:meth:`_take`); anything else, or silence for
+        ``SILENT_DROP_S``, is closed. A crowd of junk connections costs an accept and a close
+        each, so the listen queue stays short and a real client's connection is taken at once.
+        """
+        lobby: dict[socket.socket, tuple[str, float]] = {}
+        with selectors.DefaultSelector() as selector:
+            self._listener.setblocking(False)
+            selector.register(self._listener, selectors.EVENT_READ)
+            try:
+                while not self._stop.is_set():
+                    ready = selector.select(_ACCEPT_POLL_S)
+                    for key, _ in ready:
+                        if key.fileobj is self._listener:
+                            self._accept_all(selector, lobby)
+                        else:
+                            conn = key.fileobj
+                            assert isinstance(conn, socket.socket)
+                            peer, _since = lobby.pop(conn)
+                            selector.unregister(conn)
+                            self._first_bytes(conn, peer)
+                    now = time.monotonic()
+                    for conn in [c for c, (_, since) in lobby.items()
+                                 if now - since > SILENT_DROP_S]:
+                        log.info("closing client %s: sent nothing within %g s", lobby[conn][0],
+                                 SILENT_DROP_S)
+                        del lobby[conn]
+                        selector.unregister(conn)
+                        conn.close()
+                    if not ready and self.client is None:
                         self._drain_idle()
-                    continue
-                except OSError:
-                    if self._stop.is_set():
-                        break
-                    raise
-                self._take(conn, f"{addr[0]}:{addr[1]}")
-        finally:
-            self._end_session("bridge stopping")
+            finally:
+                for conn in lobby:
+                    conn.close()
+                self._end_session("bridge stopping")
+
+    def _accept_all(self, selector: selectors.BaseSelector,
+                    lobby: dict[socket.socket, tuple[str, float]]) -> None:
+        while True:
+            try:
+                conn, addr = self._listener.accept()
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError:
+                if self._stop.is_set():
+                    return
+                raise
+            if len(lobby) >= LOBBY_MAX:  # the oldest one has said nothing longest: it goes
+                oldest = min(lobby, key=lambda c: lobby[c][1])
+                del lobby[oldest]
+                selector.unregister(oldest)
+                oldest.close()
+            conn.setblocking(False)
+            lobby[conn] = (f"{addr[0]}:{addr[1]}", time.monotonic())
+            selector.register(conn, selectors.EVENT_READ)
+
+    def _first_bytes(self, conn: socket.socket, peer: str) -> None:
+        try:
+            first = conn.recv(4096)
+        except (BlockingIOError, InterruptedError):
+            first = None  # spurious wake-up: cannot happen with one reader; be safe
+        except OSError:
+            first = b""
+        if not first or first[0] not in (IAC[0], oi.Opcode.START):
+            if first:
+                log.info("closing client %s: first byte %d is neither telnet (255) nor OI "
+                         "Start (128)", peer, first[0])
+            conn.close()
+            return
+        conn.setblocking(True)
+        self._take(conn, peer, first)
 
     def _drain_idle(self) -> None:
         """No client: drop what the robot sends (a client purges on connect anyway) and notice a
@@ -461,7 +549,7 @@ class Rfc2217Bridge:
         except LINK_ERRORS as exc:
             self._device_failed(f"serial device failed: {exc}")
 
-    def _take(self, conn: socket.socket, peer: str) -> None:
+    def _take(self, conn: socket.socket, peer: str, first: bytes = b"") -> None:
         try:
             _keepalive(conn)
             conn.settimeout(_RECV_POLL_S)
@@ -470,28 +558,33 @@ class Rfc2217Bridge:
             conn.close()
             return
         with self._take_lock:
-            if self.client is not None:
-                self._waiting = [s for s in self._waiting if not s.ended.is_set()]
-                if len(self._waiting) >= MAX_WAITING:
-                    log.warning("client %s refused: %d connections already wait to take over "
-                                "from %s", peer, len(self._waiting), self.client)
+            self._waiting = [w for w in self._waiting if not w.ended.is_set()]
+            if len(self._waiting) >= MAX_WAITING:
+                silent = [w for w in self._waiting if not w.spoke]
+                if not silent:
+                    log.warning("client %s refused: %d connections already wait to take over",
+                                peer, len(self._waiting))
                     with contextlib.suppress(OSError):
                         conn.close()
                     return
+                oldest = min(silent, key=lambda w: w.started)
+                self._waiting.remove(oldest)
+                oldest.drop(f"silent, and {peer} is waiting")
+            if self.client is not None:
                 log.warning("client %s connected while %s drives the robot: it takes over "
                             "when it sends OI Start (128)", peer, self.client)
-                waiting = _Session(self, conn, peer, active=False)
-                self._waiting.append(waiting)
-                waiting.start()
+            else:
+                log.info("client %s connected: it drives the robot once it sends OI Start "
+                         "(128)", peer)
+            try:  # the telnet greeting is sent now: the peer may already be gone
+                waiting = _Session(self, conn, peer, active=False, first=first)
+            except OSError as exc:
+                log.info("client %s: %s", peer, exc)
+                with contextlib.suppress(OSError):
+                    conn.close()
                 return
-            self._end_session("a new client")
-            with self._serial_lock, contextlib.suppress(*LINK_ERRORS):
-                self.port.reset_input_buffer()
-            session = _Session(self, conn, peer)
-            self._session = session
-            self.clients_served += 1
-            log.info("client %s connected", peer)
-            session.start()
+            self._waiting.append(waiting)
+            waiting.start()
 
     def promote(self, session: _Session) -> bool:
         """A waiting ``session`` sent OI Start: it takes over (the previous client is closed and

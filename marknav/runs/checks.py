@@ -24,13 +24,15 @@ from pathlib import Path
 from pydantic import ValidationError
 
 from marknav.core.errors import InputError, InputErrors
+from marknav.core.inputfile import stat_path
 from marknav.core.yamlio import load_yaml_file
 from marknav.missions.overrides import Override, apply_overrides, relabel
 from marknav.missions.schema import Marks, Mission, Sim, load_mission
 from marknav.sim import world as worldmod
 from marknav.vision.palette import ColourRange
 
-__all__ = ["check_mission", "check_world", "checked_mission"]
+__all__ = ["check_mission", "check_world", "checked_mission", "loaded_mission_problems",
+           "read_mission"]
 
 
 def check_mission(
@@ -42,14 +44,42 @@ def check_mission(
     """The mission (``None`` if its file does not load) and every problem found. ``world``
     replaces the mission's ``sim.world`` (``run --world FILE``)."""
     try:
-        mission = load_mission(path, overrides=overrides)
+        mission = read_mission(path, overrides, world=world)
     except InputErrors as exc:
-        return None, _merge(exc.errors, _world_of_invalid_mission(path, overrides, world))
+        return None, list(exc.errors)
     except InputError as exc:
         return None, [exc]
+    return mission, loaded_mission_problems(mission, overrides, world=world)
+
+
+def read_mission(
+    path: str | Path,
+    overrides: Sequence[Override] = (),
+    *,
+    world: str | Path | None = None,
+) -> Mission:
+    """Step 1 of the checks: the file, its schema, ``--set`` and plugins
+    (:func:`~marknav.missions.schema.load_mission`). A file with errors raises them all, with
+    the world's own problems where the parts they need are valid. ``run`` has *read* the
+    mission once this returns: from then on, whatever happens, it leaves a report."""
+    try:
+        return load_mission(path, overrides=overrides)
+    except InputErrors as exc:
+        raise InputErrors(_merge(exc.errors, _world_of_invalid_mission(path, overrides, world))
+                          ) from None
+
+
+def loaded_mission_problems(
+    mission: Mission,
+    overrides: Sequence[Override] = (),
+    *,
+    world: str | Path | None = None,
+) -> list[InputError]:
+    """Steps 2 and 3 of the checks, on a mission :func:`read_mission` returned: building the
+    tree, and the simulator world."""
     errors = check_build(mission)
     errors.extend(check_world(mission, world))
-    return mission, relabel(errors, overrides)
+    return relabel(errors, overrides)
 
 
 def _merge(first: Sequence[InputError], more: Sequence[InputError]) -> list[InputError]:
@@ -140,7 +170,11 @@ def _world_of_invalid_mission(
 def _world_problems(
     marks: Marks, route: Sequence[str], world_path: Path, where: tuple[str, ...], locate: Locate
 ) -> list[InputError]:
-    if not world_path.exists():  # anything else that is not a world file: the loader says what
+    try:
+        found = stat_path(world_path, field=None if where else "--world") is not None
+    except InputError as exc:  # a name too long, a loop of links: at the key that named it
+        return [locate(where, f"{exc.message}: {world_path}") if where else exc]
+    if not found:  # anything else that is not a world file: the loader says what
         if where:
             return [locate(where, f"no such world file: {world_path}")]
         return [InputError("no such file", file=str(world_path))]

@@ -60,7 +60,10 @@ OnResult = Callable[[Any], None]
 ORPHAN_POLL_S = 0.5
 #: How long the parent waits between checks of its futures (s): bounds the reaction to signals.
 WAIT_S = 0.5
-#: How long to wait for the Dask scheduler to answer (s).
+#: How long the Dask scheduler has to answer marknav's first message (s): on a LAN it answers
+#: in milliseconds, over a busy Wi-Fi link (130-300 ms round trips) within a second.
+DASK_PROBE_TIMEOUT_S = 3.0
+#: How long the Dask client then has to register with that scheduler (s).
 DASK_CONNECT_TIMEOUT_S = 10.0
 
 #: Serialises runs inside one process (py_trees' blackboard is process-global).
@@ -224,11 +227,44 @@ def _dask_client(address: str) -> Any:
     if "://" not in address:
         raise InputError(f"give the scheduler's address as tcp://HOST:PORT, got {address!r}",
                          field="--dask")
+    _probe_scheduler(address, DASK_PROBE_TIMEOUT_S)
     try:
         return Client(address, timeout=DASK_CONNECT_TIMEOUT_S, set_as_default=False)
     except (OSError, TimeoutError, ValueError) as exc:
         raise InputError(f"cannot connect to the Dask scheduler at {address}: {exc}",
                          field="--dask") from None
+
+
+def _probe_scheduler(address: str, timeout_s: float) -> None:
+    """:class:`InputError` unless a Dask scheduler at ``address`` answers within ``timeout_s``.
+
+    Asked on a private event loop, bounded as a whole: ``distributed.Client``'s own timeout
+    does not cover a peer that accepts the connection and never answers (it waited for ever),
+    and a client that failed to start leaves threads whose clean-up printed a traceback
+    (``TimeoutError: timed out after 20 s``) after the error message. No client exists until
+    this passed."""
+    import asyncio
+
+    from distributed.comm import connect
+
+    async def identity() -> Any:
+        comm = await connect(address, timeout=timeout_s)
+        try:
+            await comm.write({"op": "identity"})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    try:
+        reply = asyncio.run(asyncio.wait_for(identity(), timeout_s))
+    except (OSError, TimeoutError, ValueError) as exc:  # CommClosedError is an OSError
+        why = str(exc) or f"no answer within {timeout_s:g} s"
+        raise InputError(f"cannot connect to the Dask scheduler at {address}: {why}",
+                         field="--dask") from None
+    kind = reply.get("type") if isinstance(reply, dict) else None
+    if kind != "Scheduler":
+        raise InputError(f"{address} answered, but is not a Dask scheduler ({kind or reply!r})",
+                         field="--dask")
 
 
 def _run_dask(task: Task, jobs: Sequence[Job], max_time_s: float | None, on_result: OnResult,

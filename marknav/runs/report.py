@@ -18,10 +18,11 @@ import contextlib
 import json
 import logging
 import math
+import os
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Protocol, TextIO
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -135,52 +136,63 @@ class RunReport:
 
 
 class EventLog:
-    """Append-only JSON Lines log, flushed after every event.
+    """Append-only JSON Lines log, each record written whole as it happens.
 
-    Opening it raises ``OSError`` (check the path first: :mod:`marknav.core.outputs`). A write that
-    fails later (a full disk: ENOSPC) never stops the run: the log stops there, and
-    :attr:`error` says why. Times never go backwards: an event stamped earlier than the one
-    before it (a safety transition seen late) is written at the later time.
+    Opening it raises ``OSError`` (check the path first: :mod:`marknav.core.outputs`). Each record
+    is one ``os.write`` of one whole line (unbuffered: nothing waits in memory). A write that
+    fails later (a full disk: ENOSPC, a file size limit: EFBIG) never stops the run: the part
+    of the record that did reach the file is taken back (truncated), so the log ends with its
+    last whole line, the log stops there, and :attr:`error` says why. Times never go
+    backwards: an event stamped earlier than the one before it (a safety transition seen late)
+    is written at the later time.
     """
 
     def __init__(self, path: str | Path | None) -> None:
         self.path = Path(path) if path is not None else None
-        self._fh: TextIO | None = None
+        self._fd: int | None = None
+        self._size = 0  # bytes of whole records written
         self.count = 0
         self.error: str | None = None
         self._last_t = 0.0
         if self.path is not None:
-            self._fh = open(self.path, "w", encoding="utf-8")  # noqa: SIM115 (closed in close())
+            self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC
+                               | getattr(os, "O_CLOEXEC", 0), 0o666)
 
     def write(self, t: float, kind: str, **data: Any) -> None:
         self.count += 1
-        if self._fh is None:
+        if self._fd is None:
             return
         t = max(float(t), self._last_t)
         self._last_t = t
         record = {"t": round(t, 4), "kind": kind, **data}
+        line = (json.dumps(record, default=str) + "\n").encode("utf-8")
+        done = 0
         try:
-            self._fh.write(json.dumps(record, default=str) + "\n")
-            self._fh.flush()
+            while done < len(line):  # one write, unless the file takes only part of it
+                done += os.write(self._fd, line[done:])
         except OSError as exc:
+            if done:  # a part of the line reached the file: take it back
+                with contextlib.suppress(OSError):  # /dev/full cannot be truncated
+                    os.ftruncate(self._fd, self._size)
             self._failed(exc)
+            return
+        self._size += len(line)
 
     def _failed(self, exc: OSError) -> None:
         self.error = f"cannot write the event log {self.path}: {exc.strerror or exc}"
         log.error("%s; the run goes on without it", self.error)
-        fh, self._fh = self._fh, None
-        if fh is not None:
-            with contextlib.suppress(OSError):  # the line that failed fails again on close
-                fh.close()
+        fd, self._fd = self._fd, None
+        if fd is not None:
+            with contextlib.suppress(OSError):
+                os.close(fd)
 
     def close(self) -> None:
-        if self._fh is not None:
+        fd, self._fd = self._fd, None
+        if fd is not None:
             try:
-                self._fh.close()
-            except OSError as exc:
-                self._fh = None
+                os.close(fd)
+            except OSError as exc:  # a network file system reports a lost write here
                 self._failed(exc)
-            self._fh = None
 
     def __enter__(self) -> EventLog:
         return self

@@ -55,6 +55,9 @@ class RunRequest:
     viewer: bool = False  # stream the run to a Rerun viewer (the ``viewer`` extra)
     record_path: Path | None = None  # save a Rerun recording (.rrd)
     world_model: Any = None  # a World built in memory (a random mission's): used as it is
+    #: Set once :func:`execute` (or :func:`write_interrupted`) began writing the report and the
+    #: log: a signal that ends the command after that needs no other report.
+    finishing: bool = False
 
 
 @dataclass
@@ -194,19 +197,9 @@ def execute(req: RunRequest) -> RunResult:
     wheels stopped, Passive, port closed) is closed on every way out.
     """
     mission = req.mission
-    seed = req.seed if req.seed is not None else (mission.sim.seed if mission.sim else 0)
-    report = RunReport(
-        mission=mission.name, seed=seed if req.robot == "sim" else None,
-        robot=req.robot, camera=req.camera,
-        waypoints=[WaypointResult(colour=c, side=mission.side_of(c)) for c in mission.route],
-        overrides=list(mission.overrides),
-    )
-    report.outcome, report.reason = ABORTED, "did not start"
-    try:
-        events = EventLog(req.events_path)
-    except OSError as exc:
-        raise InputError(f"cannot write the event log: {exc.strerror or exc}",
-                         file=str(req.events_path), field="--events") from None
+    seed = _seed(req)
+    report = _unstarted_report(req, seed)
+    events = _event_log(req)
     env: Environment | None = None
     result: RunResult | None = None
     root: py_trees.behaviour.Behaviour | None = None
@@ -251,11 +244,54 @@ def execute(req: RunRequest) -> RunResult:
     return result
 
 
+def _seed(req: RunRequest) -> int:
+    mission = req.mission
+    return req.seed if req.seed is not None else (mission.sim.seed if mission.sim else 0)
+
+
+def _unstarted_report(req: RunRequest, seed: int) -> RunReport:
+    mission = req.mission
+    report = RunReport(
+        mission=mission.name, seed=seed if req.robot == "sim" else None,
+        robot=req.robot, camera=req.camera,
+        waypoints=[WaypointResult(colour=c, side=mission.side_of(c)) for c in mission.route],
+        overrides=list(mission.overrides),
+    )
+    report.outcome, report.reason = ABORTED, "did not start"
+    return report
+
+
+def _event_log(req: RunRequest) -> EventLog:
+    try:
+        return EventLog(req.events_path)
+    except OSError as exc:
+        raise InputError(f"cannot write the event log: {exc.strerror or exc}",
+                         file=str(req.events_path), field="--events") from None
+
+
+def write_interrupted(req: RunRequest, exc: KeyboardInterrupt, when: str) -> None:
+    """The report and the event log of a run a signal stopped before :func:`execute` (``when``:
+    e.g. "while checking the mission"): outcome ``aborted``, reason ``interrupted (SIGNAL)
+    WHEN``; nothing had been opened, so no wheel ever turned. Files as :func:`execute` lists
+    them (``req.written``, ``req.write_errors``)."""
+    report = _unstarted_report(req, _seed(req))
+    report.reason = f"interrupted ({exc or 'SIGINT'}) {when}"
+    with signals.deferred():
+        try:
+            events = _event_log(req)
+        except InputError as error:
+            req.write_errors.append(str(error))
+            events = EventLog(None)
+        events.write(0.0, "end", outcome=report.outcome, reason=report.reason, ticks=0)
+        _finish(req, req.mission, None, None, report, events)
+
+
 def _finish(req: RunRequest, mission: Mission, env: Environment | None,
             result: RunResult | None, report: RunReport, events: EventLog,
             root: py_trees.behaviour.Behaviour | None = None) -> None:
     """Close the environment, complete and write the report and the log, draw the plot.
     An exception from the ground truth (a bug) is raised again once the files are written."""
+    req.finishing = True
     failure: Exception | None = None
     extra: dict[str, Any] = {}
     try:

@@ -29,6 +29,7 @@ import dataclasses
 import json
 import logging
 import math
+import stat
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -40,6 +41,7 @@ import py_trees
 from marknav.behaviours import keys
 from marknav.core import signals
 from marknav.core.errors import InputError
+from marknav.core.inputfile import MAX_LOG_BYTES, read_bytes, stat_path
 from marknav.runs.report import EventLog, RunReport
 from marknav.runs.treeview import SUCCESS, TreeState
 
@@ -317,35 +319,38 @@ class Recorder:
 def resolve_log(path: str | Path) -> Path:
     """A run folder (its ``*.events.jsonl``) or a log file; InputError when there is none."""
     p = Path(path)
-    if p.is_dir():
+    st = stat_path(p, field="RUN")
+    if st is not None and stat.S_ISDIR(st.st_mode):
         found = sorted(p.glob("*.events.jsonl"))
         if not found:
             raise InputError("no run log (*.events.jsonl) in this folder", file=str(p))
         return found[0]
-    if not p.is_file():
+    if st is None:
         raise InputError("no such file or folder", file=str(p))
-    return p
+    return p  # read_log refuses anything but a regular file, without blocking
 
 
 def read_log(path: str | Path) -> list[dict[str, Any]]:
     """Every record of a run log; InputError naming FILE:LINE for a line that is not JSON."""
     p = resolve_log(path)
+    data = read_bytes(p, limit=MAX_LOG_BYTES, what="a run log")
+    lines = data.split(b"\n")
     out = []
-    with open(p, encoding="utf-8") as fh:
-        for lineno, line in enumerate(fh, start=1):
-            if not line.strip():
-                continue
-            try:
-                rec = json.loads(line)
-            except json.JSONDecodeError as exc:
-                if lineno > 1 and not line.endswith("\n"):
-                    break  # the last line of a log cut short (power loss): keep the rest
-                raise InputError(f"not a run-log line: {exc.msg}", file=str(p),
-                                 line=lineno) from None
-            if not isinstance(rec, dict) or "kind" not in rec or "t" not in rec:
-                raise InputError("not a run-log record (needs 't' and 'kind')", file=str(p),
-                                 line=lineno)
-            out.append(rec)
+    for lineno, raw in enumerate(lines, start=1):
+        last = lineno == len(lines)  # no newline after it: written last, maybe cut short
+        if not raw.strip():
+            continue
+        try:
+            rec = json.loads(raw.decode("utf-8"))
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            if lineno > 1 and last:
+                break  # the last line of a log cut short (power loss): keep the rest
+            why = exc.msg if isinstance(exc, json.JSONDecodeError) else "not UTF-8 text"
+            raise InputError(f"not a run-log line: {why}", file=str(p), line=lineno) from None
+        if not isinstance(rec, dict) or "kind" not in rec or "t" not in rec:
+            raise InputError("not a run-log record (needs 't' and 'kind')", file=str(p),
+                             line=lineno)
+        out.append(rec)
     return out
 
 

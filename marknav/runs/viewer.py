@@ -24,14 +24,18 @@ yourself to allow it).
 
 from __future__ import annotations
 
+import logging
 import os
 import sys
 from pathlib import Path
 from typing import Any
 
 from marknav.core.errors import InputError
+from marknav.core.inputfile import MAX_IMAGE_BYTES, read_bytes
 from marknav.runs.display import status_text
 from marknav.runs.treeview import TreeState
+
+log = logging.getLogger(__name__)
 
 EXTRA_HINT = "pip install 'marknav[viewer]'"
 #: Points per driven-path strip (the path is logged as growing strips of this many points).
@@ -282,8 +286,12 @@ def log_to_recording(log_path: Path, records: list[dict[str, Any]], *, spawn: bo
         for fr in frames_by_t.pop(t, []):
             image = None
             if fr.get("image"):
-                p = log_path.parent / fr["image"]
-                image = p.read_bytes() if p.is_file() else None
+                try:  # a frame file the log names: bounded, and only a regular file
+                    image = read_bytes(log_path.parent / str(fr["image"]),
+                                       limit=MAX_IMAGE_BYTES, what="a camera frame")
+                except InputError as exc:
+                    log.warning("frame left out: %s", exc)
+                    image = None
             frames.append((fr, image))
         sink.tick(t, rec, frames, state)
     return sink

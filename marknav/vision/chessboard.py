@@ -27,6 +27,7 @@ import numpy.typing as npt
 
 from marknav.core.errors import InputError
 from marknav.core.figures import save_figure
+from marknav.vision.imagefile import read_image
 from marknav.vision.undistort import Intrinsics
 
 __all__ = ["MIN_IMAGES", "BoardView", "CameraCalibration", "calibrate_images", "find_board",
@@ -123,16 +124,7 @@ def write_opencv_yml(cal: CameraCalibration, out: str | Path) -> None:
 
 
 def _read_grey(path: str) -> npt.NDArray[np.uint8]:
-    p = Path(path)
-    if not p.exists():
-        raise InputError("no such file", file=path)
-    if p.is_dir():
-        raise InputError("is a directory, expected an image", file=path)
-    data = np.fromfile(path, dtype=np.uint8) if p.stat().st_size > 0 else None
-    image = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data is not None else None
-    if image is None:
-        raise InputError("cannot read the image (not an image file, or corrupt)", file=path)
-    return np.asarray(image, dtype=np.uint8)
+    return read_image(path, grey=True)
 
 
 def find_board(path: str, board: tuple[int, int]) -> BoardView:

@@ -137,8 +137,9 @@ def image_size(data: bytes) -> tuple[str, tuple[int, int] | None] | None:
     return None
 
 
-def decode_image(data: bytes, name: str) -> Image:
-    """Decode an encoded image after checking the size its header claims."""
+def decode_image(data: bytes, name: str, *, grey: bool = False) -> Image:
+    """Decode an encoded image (BGR, or one channel with ``grey``) after checking the size its
+    header claims."""
     found = image_size(data)
     if found is None:
         raise InputError("not an image marknav reads (PNG, JPEG, BMP, TIFF, WebP or PNM)",
@@ -153,7 +154,8 @@ def decode_image(data: bytes, name: str) -> Image:
         raise InputError(f"{fmt} header claims {w} × {h} pixels, more than the "
                          f"{MAX_IMAGE_PIXELS / 1e6:g} megapixels accepted", file=name)
     try:
-        image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_COLOR)
+        image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8),
+                             cv2.IMREAD_GRAYSCALE if grey else cv2.IMREAD_COLOR)
     except cv2.error as exc:
         raise InputError(f"cannot decode the {fmt} image: {str(exc).strip()}",
                          file=name) from None
@@ -162,7 +164,8 @@ def decode_image(data: bytes, name: str) -> Image:
     return np.asarray(image, dtype=np.uint8)
 
 
-def read_image(path: str | Path) -> Image:
-    """Read a BGR image file, bounded (see the module docstring)."""
+def read_image(path: str | Path, *, grey: bool = False) -> Image:
+    """Read a BGR (or ``grey``) image file, bounded (see the module docstring)."""
     name = str(path)
-    return decode_image(read_bytes(name, limit=MAX_IMAGE_BYTES, what="an image file"), name)
+    return decode_image(read_bytes(name, limit=MAX_IMAGE_BYTES, what="an image file"), name,
+                        grey=grey)

@@ -72,7 +72,7 @@ def test_bad_inputs_exit_2_naming_the_file(capsys: pytest.CaptureFixture[str],
     junk = tmp_path / "junk.jpg"
     junk.write_text("not a JPEG\n")
     err = _fails(capsys, LEFT[0], str(junk), LEFT[1], *board)
-    assert f"{junk}: cannot read the image" in err
+    assert f"{junk}: not an image marknav reads" in err  # the one image reader's words
     err = _fails(capsys, LEFT[0], str(tmp_path / "missing.jpg"), LEFT[1], *board)
     assert "missing.jpg: no such file" in err
     err = _fails(capsys, *LEFT[:3], "--board", "9by6", "--square-mm", "25")

@@ -16,6 +16,7 @@ import shutil
 from pathlib import Path
 
 from marknav.core.errors import InputError
+from marknav.core.inputfile import stat_path
 
 __all__ = ["EXAMPLES_DIR", "copy_examples", "example_files", "example_names", "mission_path"]
 
@@ -43,7 +44,7 @@ def mission_path(text: str) -> str:
     """The mission file ``text`` names: itself when it is a file (or looks like a path), else
     the built-in example of that name. A bare name that is neither raises :class:`InputError`
     listing the examples."""
-    if Path(text).exists() or not _is_bare_name(text):
+    if stat_path(text) is not None or not _is_bare_name(text):
         return text  # the loader reports a missing path with its own message
     names = example_names()
     if text in names:

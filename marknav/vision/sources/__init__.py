@@ -26,10 +26,12 @@ with ``timeout_s=0``: a tick takes the newest frame if there is one and never wa
 from __future__ import annotations
 
 import glob
+import stat
 from pathlib import Path
 
 from marknav.core.clock import Clock
 from marknav.core.errors import InputError
+from marknav.core.inputfile import stat_path
 from marknav.vision.sources.frames import (
     DEFAULT_TIMEOUT_S,
     FFMPEG_OPEN_TIMEOUT_MS,
@@ -78,22 +80,23 @@ def open_source(spec: str, *, clock: Clock | None = None,
     if spec.isdigit():
         return LiveCaptureSource(spec, int(spec), clock=clock, timeout_s=timeout_s)
     if spec.startswith("/dev/video"):
-        if not Path(spec).exists():
+        if stat_path(spec, field="--camera") is None:
             raise InputError("no such camera device", file=spec)
         return LiveCaptureSource(spec, spec, clock=clock, timeout_s=timeout_s)
     if spec.lower().startswith(("http://", "https://")):
         return open_http_source(spec, clock=clock, timeout_s=timeout_s)
     if spec.lower().startswith(STREAM_SCHEMES):
         return LiveCaptureSource(spec, spec, clock=clock, timeout_s=timeout_s)
-    path = Path(spec)
-    if path.is_dir():
-        paths = sorted(str(p) for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+    st = stat_path(spec, field="--camera")
+    if st is not None and stat.S_ISDIR(st.st_mode):
+        paths = sorted(str(p) for p in Path(spec).iterdir()
+                       if p.suffix.lower() in IMAGE_SUFFIXES)
         return ImageFolderSource(spec, paths, clock=clock)
     if any(ch in spec for ch in "*?["):
         paths = sorted(p for p in glob.glob(spec) if Path(p).suffix.lower() in IMAGE_SUFFIXES)
         return ImageFolderSource(spec, paths, clock=clock)
-    if not path.exists():
+    if st is None:
         raise InputError("no such file, directory or camera", file=spec)
-    if path.suffix.lower() in IMAGE_SUFFIXES:
+    if Path(spec).suffix.lower() in IMAGE_SUFFIXES:
         return StillImageSource(spec, clock=clock)
     return VideoFileSource(spec, clock=clock)

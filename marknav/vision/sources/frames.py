@@ -15,6 +15,7 @@ import numpy.typing as npt
 
 from marknav.core.clock import Clock, MonotonicClock
 from marknav.core.errors import InputError
+from marknav.core.inputfile import check_regular_file
 from marknav.vision import imagefile
 
 log = logging.getLogger(__name__)
@@ -106,6 +107,9 @@ class VideoFileSource:
 
     def __init__(self, path: str, *, clock: Clock | None = None) -> None:
         self.name = path
+        # OpenCV opens by name and blocks for ever in open() on a FIFO with no writer: only a
+        # regular file reaches it (checked without blocking, like every file marknav reads).
+        check_regular_file(path, what="a video file")
         cap = cv2.VideoCapture(path)
         if not cap.isOpened():
             cap.release()
