@@ -261,12 +261,12 @@ def _quiet_runs() -> Iterator[None]:
 
 
 def run_seed(mission_path: str, seed: int, max_time_s: float | None = None,
-             overrides: Sequence[str] = ()) -> SeedResult:
+             overrides: Sequence[str] = (), engine: str | None = None) -> SeedResult:
     """One evaluation run — the job (mission spec, seed[, --set overrides]): load the mission
     and run it on the generated randomised world of ``seed``; or, for the spec ``"random"``,
     draw the mission and its world from ``seed``
     (:func:`marknav.runs.random_mission.random_mission`, here in the worker, so the job
-    stays small).
+    stays small). ``engine`` overrides the mission's simulator engine.
 
     A run that raises (a bug, not a mission failure) becomes outcome ``"error"`` with the
     exception as its reason; bad input (:class:`InputError`) and Ctrl-C propagate.
@@ -283,11 +283,11 @@ def run_seed(mission_path: str, seed: int, max_time_s: float | None = None,
             drawn = random_mission(seed)
             mission = drawn.mission
             req = RunRequest(mission=mission, seed=seed, world_model=drawn.world,
-                             max_time_s=max_time_s)
+                             max_time_s=max_time_s, engine=engine)
         else:
             mission = load_mission(mission_path, overrides=parse_overrides(overrides))  # --set
             req = RunRequest(mission=mission, seed=seed, generate_world=True, randomise=True,
-                             max_time_s=max_time_s)
+                             max_time_s=max_time_s, engine=engine)
         with _quiet_runs():
             report = execute(req).report
     except InputError:
@@ -311,13 +311,14 @@ def run_seed(mission_path: str, seed: int, max_time_s: float | None = None,
 
 
 def replay_command(mission_path: str, seed: int, max_time_s: float | None = None,
-                   overrides: Sequence[str] = ()) -> str:
+                   overrides: Sequence[str] = (), engine: str | None = None) -> str:
     """The ``marknav run`` command that replays evaluation run ``seed`` exactly."""
+    flag = f" --engine {engine}" if engine is not None else ""
     if mission_path == RANDOM:
         from marknav.runs.random_mission import replay_command as random_replay
 
-        return random_replay(seed, max_time_s)
-    cmd = f"marknav run {shlex.quote(mission_path)} --world random --seed {seed}"
+        return random_replay(seed, max_time_s) + flag
+    cmd = f"marknav run {shlex.quote(mission_path)} --world random --seed {seed}{flag}"
     cmd += "".join(f" --set {shlex.quote(o)}" for o in overrides)
     if max_time_s is not None:
         cmd += f" --max-time {max_time_s:g}"
@@ -358,6 +359,8 @@ class Evaluation:
     failures: list[SeedResult] = field(default_factory=list)
     incidents: list[tuple[SeedResult, list[str]]] = field(default_factory=list)
     overrides: tuple[str, ...] = ()  # the --set KEY=VALUE settings every run used
+    engine: str = "builtin"  # the simulator engine every run used
+    engine_given: bool = False  # --engine was given (the replay commands repeat it)
 
     @property
     def clearance_target_mm(self) -> float:
@@ -369,7 +372,8 @@ class Evaluation:
         return self.success_rate >= self.min_success
 
     def replay(self, seed: int) -> str:
-        return replay_command(self.mission_path, seed, self.max_time_s, self.overrides)
+        return replay_command(self.mission_path, seed, self.max_time_s, self.overrides,
+                              self.engine if self.engine_given else None)
 
     def to_dict(self) -> dict[str, Any]:
         def r(v: float | None, nd: int = 1) -> float | None:
@@ -377,6 +381,7 @@ class Evaluation:
 
         return {
             "mission": self.mission,
+            "engine": self.engine,
             "runs": self.runs,
             "seeds": list(self.seeds),
             "overrides": list(self.overrides),
@@ -493,11 +498,13 @@ def evaluate(
     progress: Progress | None = None,
     overrides: Sequence[str] = (),
     dask: str | None = None,
+    engine: str | None = None,
 ) -> Evaluation:
     """Run ``runs`` simulated missions (seeds ``seed`` … ``seed + runs − 1``) and summarise them.
 
     ``jobs`` > 1 runs them in that many worker processes (each loads the mission from its path);
-    the results do not depend on it; ``dask`` (``tcp://HOST:PORT``) runs them on that Dask
+    the results do not depend on it; ``engine`` overrides the mission's simulator engine;
+    ``dask`` (``tcp://HOST:PORT``) runs them on that Dask
     cluster instead (:mod:`marknav.runs.evaluate_backends`). ``progress(done, total,
     successes)`` is called with ``done = 0`` when the runs start, then after each run. Bad
     input raises :class:`InputError` before anything runs.
@@ -522,10 +529,17 @@ def evaluate(
             raise InputError("changes a mission file; random missions are drawn whole from "
                              "their seed", field="--set")
         name, clearance = "random missions", 0.0
+        engine_used = engine or "builtin"
     else:
         # bad input (and a bad --set) fails here, before any worker starts
         mission = load_mission(path, overrides=parse_overrides(overrides))
         name, clearance = mission.name, mission.navigation.clearance_mm
+        engine_used = engine or (mission.sim.engine if mission.sim is not None else "builtin")
+    if engine_used == "mujoco":
+        # no MuJoCo or no headless OpenGL: exit 2 here, not a crash in every worker
+        from marknav.sim.mujoco.gl import import_mujoco
+
+        import_mujoco()
     seeds = list(range(seed, seed + runs))
     results: list[SeedResult] = []
     wall0 = time.perf_counter()
@@ -540,7 +554,7 @@ def evaluate(
         progress(0, runs, 0)
     resolve = dask is not None and path != RANDOM  # a cluster's cwd differs
     spec = str(Path(path).resolve()) if resolve else path  # a cluster's cwd differs
-    _, workers = run_jobs(run_seed, [(spec, s, tuple(overrides)) for s in seeds],
+    _, workers = run_jobs(run_seed, [(spec, s, tuple(overrides), engine) for s in seeds],
                           max_time_s=max_time_s,
                           workers=jobs, dask=dask, on_result=done)
     ev = summarise(results, mission=name, mission_path=path,
@@ -548,6 +562,7 @@ def evaluate(
                    max_time_s=max_time_s, jobs=workers,
                    wall_total_s=time.perf_counter() - wall0)
     ev.overrides = tuple(overrides)
+    ev.engine, ev.engine_given = engine_used, engine is not None
     return ev
 
 
@@ -556,7 +571,8 @@ def format_evaluation(ev: Evaluation) -> str:
     lo, hi = ev.success_ci95
     first, last = ev.seeds
     lines = [
-        f"{ev.mission}: {ev.runs} simulated run{'s' if ev.runs != 1 else ''} on "
+        f"{ev.mission}: {ev.runs} simulated run{'s' if ev.runs != 1 else ''} "
+        + (f"(engine {ev.engine}) " if ev.engine != "builtin" else "") + "on "
         + ("generated missions and " if ev.mission_path == RANDOM else "")
         + f"randomised worlds (seeds {first}–{last}, {ev.jobs} job{'s' if ev.jobs != 1 else ''})",
         f"  success      {ev.successes}/{ev.runs} = {ev.success_rate:.1%}  "
