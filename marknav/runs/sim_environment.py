@@ -132,8 +132,7 @@ class SimEnvironment:
             from marknav.sim.mujoco.camera import MujocoCamera
 
             try:
-                self.camera = MujocoCamera(self._mujoco, clock=self.clock, config=cam_config,
-                                           seed=seed)
+                self.camera = MujocoCamera(self._mujoco, clock=self.clock, seed=seed)
             except BaseException:
                 self.driver.close()
                 unregister(self._url.split("://", 1)[1])

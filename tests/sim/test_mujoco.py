@@ -23,6 +23,7 @@ from marknav.robot import oi  # noqa: E402
 from marknav.robot.odometry import MM_PER_COUNT  # noqa: E402
 from marknav.robot.oi import Model, OIMode  # noqa: E402
 from marknav.robot.packets import decode_packet, packet_size  # noqa: E402
+from marknav.sim.camera import CameraConfig  # noqa: E402
 from marknav.sim.create import SimulatedCreate  # noqa: E402
 from marknav.sim.mujoco.body import MujocoBody  # noqa: E402
 from marknav.sim.world import Conditions, MarkSpec, World, generate_world  # noqa: E402
@@ -113,7 +114,8 @@ def test_a_rendered_mark_is_where_the_pinhole_model_puts_it() -> None:
 
     x, y, radius = 300.0, 2000.0, 100.0
     world = quiet_world(MarkSpec(colour="red", x_mm=x, y_mm=y, radius_mm=radius))
-    body = MujocoBody(world, DEFAULT_PALETTE, shadows=False)
+    body = MujocoBody(world, DEFAULT_PALETTE, camera=CameraConfig(principal=(300.0, 250.0)),
+                      shadows=False)
     body.set_pose(Pose(0.0, 0.0, math.pi / 2))
     with MujocoCamera(body, clock=ManualClock()) as cam:
         image = cam.render()
@@ -126,6 +128,30 @@ def test_a_rendered_mark_is_where_the_pinhole_model_puts_it() -> None:
     assert us.mean() == pytest.approx(cx + f * right / forward, abs=1.5)
     assert vs.mean() == pytest.approx(cy, abs=1.5)
     assert math.sqrt(len(us) / math.pi) == pytest.approx(f * radius / forward, rel=0.05)
+
+
+def test_a_lens_distorts_the_frame_as_its_intrinsics_say() -> None:
+    from marknav.sim.lens import Lens
+    from marknav.sim.mujoco.camera import MujocoCamera
+    from marknav.vision.undistort import undistort_points
+
+    x, y = 700.0, 2000.0  # toward the image's right edge, where a barrel lens pulls inward
+    lens = Lens(k1=-0.25, k2=0.05, principal_offset=(0.01, -0.01))
+    world = World(marks=(MarkSpec(colour="red", x_mm=x, y_mm=y, radius_mm=60.0),),
+                  conditions=Conditions(noise_sigma=0.0, lens=lens))
+    body = MujocoBody(world, DEFAULT_PALETTE, shadows=False)
+    with MujocoCamera(body, clock=ManualClock()) as cam:
+        image = cam.render()
+        intr = cam.intrinsics
+    assert intr.dist == lens.dist and (intr.cx, intr.cy) != (319.5, 239.5)
+    hsv = cv2.cvtColor(image, cv2.COLOR_BGR2HSV)
+    vs, us = np.nonzero(((hsv[:, :, 0] < 8) | (hsv[:, :, 0] > 172)) & (hsv[:, :, 1] > 150))
+    pose = body.pose
+    ideal_u = intr.cx + intr.fx * (x - pose.x) / (y - pose.y)
+    assert us.mean() < ideal_u - 3.0  # the distortion shows
+    (u, v), = undistort_points([(us.mean(), vs.mean())], intr)
+    assert u == pytest.approx(ideal_u, abs=1.5)
+    assert v == pytest.approx(intr.cy, abs=1.5)
 
 
 def test_a_missing_osmesa_is_an_input_error_naming_the_package(

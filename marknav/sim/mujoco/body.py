@@ -13,12 +13,13 @@ travel) with the same arcs as the built-in engine (:data:`marknav.sim.world.BUMP
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from marknav.core.errors import InputError
 from marknav.planning.kinematics import Pose, wrap_angle
 from marknav.sim.camera import CameraConfig
+from marknav.sim.lens import LensWarp, lens_warp
 from marknav.sim.mujoco.gl import import_mujoco
 from marknav.sim.mujoco.model import CREATE2, DEFAULT_CAMERA, TIMESTEP_S, CreateSpec, build_model
 from marknav.sim.world import BOTH_BUMPS_HALF_ANGLE_DEG, BUMPER_HALF_ARC_DEG, World
@@ -58,9 +59,10 @@ class BumperContact:
 class MujocoBody:
     """A Create 2 in a MuJoCo model of ``world`` (see the module docstring).
 
-    ``render_size`` (w, h) sizes the off-screen buffer for the camera (default the camera's);
-    ``shadows`` turns the lamps' shadows on. The model's data (``model``, ``data``) is shared
-    with :class:`marknav.sim.mujoco.camera.MujocoCamera`.
+    ``camera`` is the robot's camera; with a lens in the world's conditions, ``canvas`` is the
+    larger ideal image MuJoCo renders and ``warp`` distorts it (``camera`` then carries the
+    lens's principal point). ``shadows`` turns the lamps' shadows on. The model's data
+    (``model``, ``data``) is shared with :class:`marknav.sim.mujoco.camera.MujocoCamera`.
     """
 
     def __init__(self, world: World, palette: tuple[ColourRange, ...], *,
@@ -70,7 +72,20 @@ class MujocoBody:
         self.mj = mj
         self.spec = robot
         self.world = world
-        built = build_model(world, palette, camera=camera, robot=robot, shadows=shadows)
+        # A lens (world.conditions.lens): MuJoCo renders the ideal pinhole image on a larger
+        # canvas, which the camera warps (as the built-in renderer does).
+        lens = world.conditions.lens
+        self.warp: LensWarp | None = None
+        self.camera = self.canvas = camera
+        if not lens.ideal:
+            self.warp = lens_warp(camera.width, camera.height, camera.focal_px, lens,
+                                  (camera.cx, camera.cy))
+            intr = self.warp.intrinsics
+            self.camera = replace(camera, principal=(intr.cx, intr.cy))
+            cw, ch = self.warp.canvas_size
+            self.canvas = replace(camera, width=cw, height=ch,
+                                  principal=self.warp.canvas_principal)
+        built = build_model(world, palette, camera=self.canvas, robot=robot, shadows=shadows)
         try:
             self.model: Any = mj.MjModel.from_xml_string(built.xml, built.assets)
         except ValueError as exc:

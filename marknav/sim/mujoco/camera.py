@@ -1,13 +1,14 @@
 """MuJoCo's renderer as the robot's camera: a :class:`marknav.vision.sources.FrameSource`.
 
 Each :meth:`MujocoCamera.read` renders the model's ``eye`` camera (fixed to the robot's body at
-the camera height, ``fovy`` from the mission's focal length: an exact pinhole with its principal
-point at the image centre) at the current physics state and clock time, in BGR. The world's
-image conditions that belong to a camera rather than to the room are then applied as the built-in
-camera applies them: a Gaussian blur of σ ``blur_sigma_px`` and additive Gaussian noise of σ
-``noise_sigma`` (from a tile drawn once, at a random offset per frame); ``latency_frames``
-delays delivery. Light level and colour come from the room's lamps (the model), not from a gain.
-Lens distortion is not applied (the MuJoCo camera is a pinhole).
+the camera height: the mission's focal length and principal point as an exact pinhole) at the
+current physics state and clock time, in BGR. The world's image conditions that belong to a
+camera rather than to the room are then applied as the built-in camera applies them: the lens's
+distortion (the pinhole image is rendered on a larger canvas and remapped,
+:class:`marknav.sim.lens.LensWarp`), a Gaussian blur of σ ``blur_sigma_px`` and additive
+Gaussian noise of σ ``noise_sigma`` (from a tile drawn once, at a random offset per frame);
+``latency_frames`` delays delivery. Light level and colour come from the room's lamps (the
+model), not from a gain.
 """
 
 from __future__ import annotations
@@ -23,7 +24,6 @@ from marknav.core.clock import Clock
 from marknav.sim.camera import CameraConfig
 from marknav.sim.mujoco.body import MujocoBody
 from marknav.sim.mujoco.gl import make_renderer
-from marknav.sim.mujoco.model import DEFAULT_CAMERA
 from marknav.vision.estimate import PowerLaw
 from marknav.vision.sources import Frame, Image
 from marknav.vision.undistort import Intrinsics
@@ -35,18 +35,21 @@ class MujocoCamera:
     """The robot's camera in a :class:`MujocoBody`'s model (see the module docstring).
     ``close`` is idempotent; a closed camera reads ``None``."""
 
-    def __init__(self, body: MujocoBody, *, clock: Clock, config: CameraConfig = DEFAULT_CAMERA,
-                 seed: int = 0, latency_frames: int | None = None, name: str = "mujoco") -> None:
+    def __init__(self, body: MujocoBody, *, clock: Clock, seed: int = 0,
+                 latency_frames: int | None = None, name: str = "mujoco") -> None:
         cond = body.world.conditions
         latency = cond.latency_frames if latency_frames is None else latency_frames
         if latency < 0:
             raise ValueError(f"latency_frames must be ≥ 0, got {latency}")
         self.name = name
-        self.config = config
+        self.config: CameraConfig = body.camera
+        config = self.config
+        canvas = body.canvas
+        self._warp = body.warp
         self.latency_frames = latency
         self._body = body
         self._clock = clock
-        self._renderer: Any = make_renderer(body.model, config.height, config.width)
+        self._renderer: Any = make_renderer(body.model, canvas.height, canvas.width)
         self._rng = np.random.default_rng([int(seed), 0x3C0C])
         self._blur = float(cond.blur_sigma_px)
         self._noise: tuple[Image, Image] | None = None
@@ -63,8 +66,9 @@ class MujocoCamera:
     def intrinsics(self) -> Intrinsics:
         """The exact pinhole the frames are rendered with."""
         c = self.config
-        return Intrinsics(fx=c.focal_px, fy=c.focal_px, cx=(c.width - 1) / 2.0,
-                          cy=(c.height - 1) / 2.0)
+        dist = self._body.world.conditions.lens.dist if self._warp is not None else ()
+        return Intrinsics(fx=c.focal_px, fy=c.focal_px, cx=c.cx, cy=c.cy,
+                          dist=dist if any(dist) else ())
 
     def range_law(self, mark_radius_mm: float) -> PowerLaw:
         """The pinhole's range law d = f·R / r (paper eq. 18) as a power law."""
@@ -75,6 +79,8 @@ class MujocoCamera:
         r = self._renderer
         r.update_scene(self._body.data, camera="eye")
         image = np.ascontiguousarray(cv2.cvtColor(r.render(), cv2.COLOR_RGB2BGR))
+        if self._warp is not None:
+            image = self._warp.apply(image)
         if self._blur > 0:
             k = 2 * math.ceil(3.0 * self._blur) + 1
             image = np.asarray(cv2.GaussianBlur(image, (k, k), self._blur), dtype=np.uint8)

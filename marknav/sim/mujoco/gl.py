@@ -45,7 +45,11 @@ _INSTALL_EXTRA = "pip install 'marknav[mujoco]'"
 
 def backend() -> str:
     """The OpenGL platform MuJoCo will use: ``MUJOCO_GL``, or :data:`DEFAULT_BACKEND` (set in
-    the environment by this call, before ``mujoco`` is imported) on Linux when unset."""
+    the environment by this call, before ``mujoco`` is imported) on Linux when unset. Also
+    sets ``LP_NUM_THREADS=1`` (Mesa's rasteriser threads) unless the user set it."""
+    # Mesa's software rasteriser on one thread: a simulated run is lock-step, and an evaluation
+    # runs one simulation per core (--jobs); more threads only contend for the same cores.
+    os.environ.setdefault("LP_NUM_THREADS", "1")
     chosen = os.environ.get("MUJOCO_GL", "").strip().lower()
     if not chosen and sys.platform.startswith("linux"):
         os.environ["MUJOCO_GL"] = DEFAULT_BACKEND

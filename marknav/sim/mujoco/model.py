@@ -23,7 +23,8 @@ them.
   Wheel mismatch and slip of the world's conditions are effective tyre radii: the encoders count
   the nominal 72 mm tyre, the ground moves by the effective one.
 - **The camera** is fixed to the body at the camera height and ``forward_offset_mm``, looking
-  along the heading, with ``fovy`` from the focal length (2·atan(h / 2f)).
+  along the heading, with the camera's focal length and principal point as MJCF intrinsics
+  (``focalpixel``, ``principalpixel``; the ``fovy`` is then 2·atan(h / 2f)).
 
 :func:`build_model` returns the MJCF text and the in-memory assets (textures) for
 ``mujoco.MjModel.from_xml_string``; it imports no ``mujoco``.
@@ -225,7 +226,6 @@ def build_model(
     robot: CreateSpec = CREATE2,
     shadows: bool = True,
     shadow_size: int = 1024,
-    render_size: tuple[int, int] | None = None,
 ) -> MjcfModel:
     """The MJCF of ``world`` with a Create 2 (``robot``) at its start pose and a camera named
     ``eye`` (see the module docstring). ``palette`` colours the marks; ``render_size`` (w, h)
@@ -240,7 +240,7 @@ def build_model(
     hx, hy = 0.5 * (x1 - x0), 0.5 * (y1 - y0)
     assets_xml, floor_mat, wall_mat = _textures(scene, palette, (2 * hx, 2 * hy), model.assets)
     b, g, r = world.conditions.channel_gains_bgr()
-    w, h = render_size or (camera.width, camera.height)
+    w, h = camera.width, camera.height
     obstacle = f'contype="{_OBSTACLE_BITS}" conaffinity="{_OBSTACLE_BITS}"'
     ghost = 'contype="0" conaffinity="0"'
     body: list[str] = []
@@ -366,6 +366,16 @@ def fovy_deg(camera: CameraConfig) -> float:
     return math.degrees(2.0 * math.atan((camera.height / 2.0) / camera.focal_px))
 
 
+def _intrinsics(camera: CameraConfig) -> str:
+    """The camera's pinhole as MJCF intrinsics: focal length and principal point in pixels
+    (MuJoCo's ``principalpixel`` is the principal point's offset from the image centre, rows
+    and columns counted toward the top left; the sensor size only sets the units)."""
+    w, h, f = camera.width, camera.height, camera.focal_px
+    dx, dy = (w - 1) / 2.0 - camera.cx, (h - 1) / 2.0 - camera.cy
+    return (f'resolution="{w} {h}" focalpixel="{_v(f, f)}" principalpixel="{_v(dx, dy)}" '
+            f'sensorsize="{_v(w * 1e-5, h * 1e-5)}"')
+
+
 def _ctrl(robot: CreateSpec) -> tuple[float, float]:
     w = robot.max_speed_mm_s / (robot.wheel_diameter_mm / 2.0)
     return (-w, w)
@@ -416,6 +426,6 @@ def _robot_xml(world: World, robot: CreateSpec, camera: CameraConfig) -> str:
         f'pos="{_m(caster_x)} 0 {_m(caster_z)}" mass="0.02" rgba="0.2 0.2 0.2 1"/>'
         + "".join(wheels)
         + f'<camera name="eye" pos="{_m(camera.forward_offset_mm)} 0 {_m(cam_z)}" '
-        f'xyaxes="0 -1 0 0 0 1" fovy="{fovy_deg(camera):.6g}"/>'
+        f'xyaxes="0 -1 0 0 0 1" {_intrinsics(camera)}/>'
         f'</body>'
     )
