@@ -39,7 +39,7 @@ import numpy as np
 
 from marknav.core.errors import InputError
 from marknav.core.figures import save_figure
-from marknav.runs.evaluate_backends import run_jobs
+from marknav.runs.evaluate_backends import Job, run_jobs
 from marknav.runs.report import SUCCESS, RunReport, reached
 from marknav.sim.accuracy import DEFAULT_XS_MM, DEFAULT_YS_MM
 
@@ -554,7 +554,10 @@ def evaluate(
         progress(0, runs, 0)
     resolve = dask is not None and path != RANDOM  # a cluster's cwd differs
     spec = str(Path(path).resolve()) if resolve else path  # a cluster's cwd differs
-    _, workers = run_jobs(run_seed, [(spec, s, tuple(overrides), engine) for s in seeds],
+    # (mission, seed, overrides[, engine]): the engine only when --engine was given
+    jobs_list: list[Job] = [(spec, s, tuple(overrides), engine) if engine is not None
+                            else (spec, s, tuple(overrides)) for s in seeds]
+    _, workers = run_jobs(run_seed, jobs_list,
                           max_time_s=max_time_s,
                           workers=jobs, dask=dask, on_result=done)
     ev = summarise(results, mission=name, mission_path=path,
