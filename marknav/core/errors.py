@@ -18,13 +18,13 @@ EXIT_INTERRUPTED = 130
 class MarknavError(Exception):
     """Base class of the errors marknav raises on purpose."""
 
-    exit_code = 1
+    exit_code = EXIT_FAILED
 
 
 class InputError(MarknavError):
     """Bad input from the user: a file, a table row, a mission field, a device name."""
 
-    exit_code = 2
+    exit_code = EXIT_BAD_INPUT
 
     def __init__(
         self,
@@ -72,4 +72,4 @@ class InputErrors(InputError):
 class MissionFailed(MarknavError):
     """The mission or evaluation ran but did not succeed (exit code 1)."""
 
-    exit_code = 1
+    exit_code = EXIT_FAILED

@@ -101,11 +101,6 @@ def installed() -> bool:
     return _state.installed
 
 
-def signalled() -> str | None:
-    """The first signal received since :func:`install`, or None."""
-    return _state.first
-
-
 @contextmanager
 def deferred() -> Iterator[None]:
     """A block that a signal cannot cut short: one that arrives inside is raised at its end."""

@@ -264,8 +264,3 @@ def parse_model(doc: YamlDocument, model: type[M]) -> M:
         return model.model_validate(doc.data)
     except ValidationError as exc:
         raise validation_errors(exc, doc, model) from None
-
-
-def load_model(path: str | Path, model: type[M]) -> M:
-    """Load a YAML file and validate it against ``model`` in one step."""
-    return parse_model(load_yaml_file(path), model)

@@ -365,15 +365,6 @@ class SimulatedCreate:
             self._cliffs = (bool(left), bool(front_left), bool(front_right), bool(right))
             self._safety_check()
 
-    def set_wall(self, wall: bool) -> None:
-        """Wall sensor (packet 8; on Create 2 also light bumper right)."""
-        with self._lock:
-            self._wall = bool(wall)
-
-    def set_virtual_wall(self, seen: bool) -> None:
-        with self._lock:
-            self._virtual_wall = bool(seen)
-
     def set_light_bumper(self, bits: int) -> None:
         """Light bumper bits (packet 45, Create 2): bit0 left … bit5 right."""
         if not 0 <= bits <= 63:

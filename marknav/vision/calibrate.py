@@ -54,10 +54,6 @@ class CalibrationRow:
     def rel_error(self) -> float:
         return (self.fitted_mm - self.distance_mm) / self.distance_mm
 
-    @property
-    def log_residual(self) -> float:
-        return math.log(self.distance_mm) - math.log(self.fitted_mm)
-
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {
             "radius_px": self.radius_px,
