@@ -16,6 +16,9 @@ versions) once at the top level, then a section per benchmark:
   (:func:`marknav.runs.bench.bench_safety`);
 - ``render`` — ms per simulator frame against the 2 ms target
   (:func:`marknav.runs.bench_render.bench_render`);
+- ``mujoco`` (not part of ``all``: the ``mujoco`` extra) — MuJoCo's camera in frames per second
+  at 320×240 and 640×480 with and without shadows, against the built-in renderer
+  (:func:`marknav.runs.bench_mujoco.bench_mujoco`);
 - ``dask`` (not part of ``all``: minutes, and the ``cluster`` extra) — an evaluation's
   throughput on a local Dask cluster of one worker, then two, cluster start excluded
   (:func:`marknav.runs.bench_dask.bench_dask`).
@@ -93,6 +96,14 @@ def _render(quick: bool) -> dict[str, Any]:
     return bench_render(frames=20, batches=1) if quick else bench_render()
 
 
+def _mujoco(quick: bool) -> dict[str, Any]:
+    from marknav.runs.bench_mujoco import bench_mujoco
+    from marknav.sim.mujoco.gl import import_mujoco
+
+    import_mujoco()  # no extra or no headless OpenGL: exit 2 naming it
+    return bench_mujoco(frames=5, batches=1) if quick else bench_mujoco()
+
+
 def _safety(quick: bool) -> dict[str, Any]:
     from marknav.runs.bench import bench_safety
 
@@ -115,6 +126,8 @@ BENCHMARKS: dict[str, Benchmark] = {b.name: b for b in (
               _safety),
     Benchmark("render", "ms per 640×480 simulator frame, noise and blur (target 2 ms)",
               _render),
+    Benchmark("mujoco", "MuJoCo camera fps at 320×240 and 640×480, shadows on and off, against "
+              "the built-in renderer (extra: mujoco; not in all)", _mujoco, in_all=False),
     Benchmark("dask", "evaluation throughput on a local Dask cluster, 1 then 2 workers, "
               "cluster start excluded (8 slalom runs each; not in all)", _dask, in_all=False),
 )}

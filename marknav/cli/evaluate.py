@@ -51,6 +51,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                    help="mission time limit per run (default 60 s + 40 s per waypoint)")
     p.add_argument("--min-success", type=float, default=0.95, metavar="RATE",
                    help="exit 1 when the success rate is under this (0..1, default 0.95)")
+    p.add_argument("--engine", choices=("builtin", "mujoco"),
+                   help="simulator engine (default: the mission's sim.engine, else builtin); "
+                        "mujoco needs the 'mujoco' extra and the system package libosmesa6")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
     p.add_argument("--accuracy", action="store_true",
                    help="measure position accuracy against ground truth (paper Fig. 13)")
@@ -110,7 +113,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         ev = evaluate(args.mission, runs=args.runs, seed=args.seed, jobs=args.jobs,
                       max_time_s=args.max_time, min_success=args.min_success,
-                      progress=on_progress, overrides=args.overrides, dask=args.dask)
+                      progress=on_progress, overrides=args.overrides, dask=args.dask,
+                      engine=args.engine)
     except EvaluationStopped as stop:
         progress.finish()
         _print(stop.evaluation, as_json=args.json)

@@ -66,6 +66,10 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--record", metavar="FILE.rrd", type=Path,
                    help="save a Rerun recording of the run without opening a viewer "
                         "('marknav view FILE.rrd' opens it; extra: viewer)")
+    p.add_argument("--engine", choices=("builtin", "mujoco"),
+                   help="simulator engine (default: the mission's sim.engine, else builtin): "
+                        "mujoco runs MuJoCo's physics and renderer (the 'mujoco' extra and the "
+                        "system package libosmesa6)")
     p.add_argument("--seed", type=int, help="simulator seed (default: the mission's sim.seed)")
     p.add_argument("--realtime", action="store_true",
                    help="pace the simulator at wall-clock speed")
@@ -217,5 +221,5 @@ def _request(args: argparse.Namespace, mission: Mission) -> RunRequest:
         tree_style=args.tree, out=sys.stdout, report_path=report_path,
         events_path=events_path, plot_path=args.plot, seed=args.seed,
         realtime=args.realtime, max_time_s=args.max_time, frames_hz=args.frames,
-        viewer=args.viewer, record_path=args.record,
+        viewer=args.viewer, record_path=args.record, engine=args.engine,
     )

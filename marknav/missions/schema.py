@@ -529,6 +529,16 @@ class Sim(BaseModel):
         default=0, ge=0,
         description="Random seed of the simulator (--seed overrides it).",
     )
+    engine: Literal["builtin", "mujoco"] = Field(
+        default="builtin",
+        description="Simulator engine: builtin (marknav's own kinematics and renderer) or mujoco "
+        "(MuJoCo physics, contacts and rendering; pip install 'marknav[mujoco]' and the system "
+        "package libosmesa6). --engine overrides it. The same world files drive both.",
+    )
+    shadows: bool = Field(
+        default=True,
+        description="mujoco engine: the room's lamps cast shadows (about 1.5x the render time).",
+    )
 
 
 # --------------------------------------------------------------------------------------------

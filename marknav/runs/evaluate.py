@@ -39,7 +39,7 @@ import numpy as np
 
 from marknav.core.errors import InputError
 from marknav.core.figures import save_figure
-from marknav.runs.evaluate_backends import run_jobs
+from marknav.runs.evaluate_backends import Job, run_jobs
 from marknav.runs.report import SUCCESS, RunReport, reached
 from marknav.sim.accuracy import DEFAULT_XS_MM, DEFAULT_YS_MM
 
@@ -261,12 +261,12 @@ def _quiet_runs() -> Iterator[None]:
 
 
 def run_seed(mission_path: str, seed: int, max_time_s: float | None = None,
-             overrides: Sequence[str] = ()) -> SeedResult:
+             overrides: Sequence[str] = (), engine: str | None = None) -> SeedResult:
     """One evaluation run — the job (mission spec, seed[, --set overrides]): load the mission
     and run it on the generated randomised world of ``seed``; or, for the spec ``"random"``,
     draw the mission and its world from ``seed``
     (:func:`marknav.runs.random_mission.random_mission`, here in the worker, so the job
-    stays small).
+    stays small). ``engine`` overrides the mission's simulator engine.
 
     A run that raises (a bug, not a mission failure) becomes outcome ``"error"`` with the
     exception as its reason; bad input (:class:`InputError`) and Ctrl-C propagate.
@@ -283,11 +283,11 @@ def run_seed(mission_path: str, seed: int, max_time_s: float | None = None,
             drawn = random_mission(seed)
             mission = drawn.mission
             req = RunRequest(mission=mission, seed=seed, world_model=drawn.world,
-                             max_time_s=max_time_s)
+                             max_time_s=max_time_s, engine=engine)
         else:
             mission = load_mission(mission_path, overrides=parse_overrides(overrides))  # --set
             req = RunRequest(mission=mission, seed=seed, generate_world=True, randomise=True,
-                             max_time_s=max_time_s)
+                             max_time_s=max_time_s, engine=engine)
         with _quiet_runs():
             report = execute(req).report
     except InputError:
@@ -311,13 +311,14 @@ def run_seed(mission_path: str, seed: int, max_time_s: float | None = None,
 
 
 def replay_command(mission_path: str, seed: int, max_time_s: float | None = None,
-                   overrides: Sequence[str] = ()) -> str:
+                   overrides: Sequence[str] = (), engine: str | None = None) -> str:
     """The ``marknav run`` command that replays evaluation run ``seed`` exactly."""
+    flag = f" --engine {engine}" if engine is not None else ""
     if mission_path == RANDOM:
         from marknav.runs.random_mission import replay_command as random_replay
 
-        return random_replay(seed, max_time_s)
-    cmd = f"marknav run {shlex.quote(mission_path)} --world random --seed {seed}"
+        return random_replay(seed, max_time_s) + flag
+    cmd = f"marknav run {shlex.quote(mission_path)} --world random --seed {seed}{flag}"
     cmd += "".join(f" --set {shlex.quote(o)}" for o in overrides)
     if max_time_s is not None:
         cmd += f" --max-time {max_time_s:g}"
@@ -362,6 +363,8 @@ class Evaluation:
     #: finished, out of ``planned_runs``.
     interrupted: bool = False
     planned_runs: int = 0
+    engine: str = "builtin"  # the simulator engine every run used
+    engine_given: bool = False  # --engine was given (the replay commands repeat it)
 
     @property
     def clearance_target_mm(self) -> float:
@@ -373,7 +376,8 @@ class Evaluation:
         return self.success_rate >= self.min_success
 
     def replay(self, seed: int) -> str:
-        return replay_command(self.mission_path, seed, self.max_time_s, self.overrides)
+        return replay_command(self.mission_path, seed, self.max_time_s, self.overrides,
+                              self.engine if self.engine_given else None)
 
     def to_dict(self) -> dict[str, Any]:
         def r(v: float | None, nd: int = 1) -> float | None:
@@ -381,6 +385,7 @@ class Evaluation:
 
         return {
             "mission": self.mission,
+            "engine": self.engine,
             "runs": self.runs,
             "interrupted": self.interrupted,
             "planned_runs": self.planned_runs or self.runs,
@@ -509,11 +514,13 @@ def evaluate(
     progress: Progress | None = None,
     overrides: Sequence[str] = (),
     dask: str | None = None,
+    engine: str | None = None,
 ) -> Evaluation:
     """Run ``runs`` simulated missions (seeds ``seed`` … ``seed + runs − 1``) and summarise them.
 
     ``jobs`` > 1 runs them in that many worker processes (each loads the mission from its path);
-    the results do not depend on it; ``dask`` (``tcp://HOST:PORT``) runs them on that Dask
+    the results do not depend on it; ``engine`` overrides the mission's simulator engine;
+    ``dask`` (``tcp://HOST:PORT``) runs them on that Dask
     cluster instead (:mod:`marknav.runs.evaluate_backends`). ``progress(done, total,
     successes)`` is called with ``done = 0`` when the runs start, then after each run. Bad
     input raises :class:`InputError` before anything runs.
@@ -538,10 +545,17 @@ def evaluate(
             raise InputError("changes a mission file; random missions are drawn whole from "
                              "their seed", field="--set")
         name, clearance = "random missions", 0.0
+        engine_used = engine or "builtin"
     else:
         # bad input (and a bad --set) fails here, before any worker starts
         mission = load_mission(path, overrides=parse_overrides(overrides))
         name, clearance = mission.name, mission.navigation.clearance_mm
+        engine_used = engine or (mission.sim.engine if mission.sim is not None else "builtin")
+    if engine_used == "mujoco":
+        # no MuJoCo or no headless OpenGL: exit 2 here, not a crash in every worker
+        from marknav.sim.mujoco.gl import import_mujoco
+
+        import_mujoco()
     seeds = list(range(seed, seed + runs))
     results: list[SeedResult] = []
     wall0 = time.perf_counter()
@@ -564,10 +578,14 @@ def evaluate(
                        wall_total_s=time.perf_counter() - wall0)
         ev.overrides = tuple(overrides)
         ev.planned_runs = runs
+        ev.engine, ev.engine_given = engine_used, engine is not None
         return ev
 
+    # (mission, seed, overrides[, engine]): the engine only when --engine was given
+    jobs_list: list[Job] = [(spec, s, tuple(overrides), engine) if engine is not None
+                            else (spec, s, tuple(overrides)) for s in seeds]
     try:
-        _, workers = run_jobs(run_seed, [(spec, s, tuple(overrides)) for s in seeds],
+        _, workers = run_jobs(run_seed, jobs_list,
                               max_time_s=max_time_s,
                               workers=jobs, dask=dask, on_result=done)
     except KeyboardInterrupt as exc:  # what finished is kept (the runs cut short are not)
@@ -584,7 +602,8 @@ def format_evaluation(ev: Evaluation) -> str:
     lines = [
         *([f"INTERRUPTED: the {ev.runs} run{'s' if ev.runs != 1 else ''} that finished of the "
            f"{ev.planned_runs} planned"] if ev.interrupted else []),
-        f"{ev.mission}: {ev.runs} simulated run{'s' if ev.runs != 1 else ''} on "
+        f"{ev.mission}: {ev.runs} simulated run{'s' if ev.runs != 1 else ''} "
+        + (f"(engine {ev.engine}) " if ev.engine != "builtin" else "") + "on "
         + ("generated missions and " if ev.mission_path == RANDOM else "")
         + f"randomised worlds (seeds {first}–{last}, {ev.jobs} job{'s' if ev.jobs != 1 else ''})",
         f"  success      {ev.successes}/{ev.runs} = {ev.success_rate:.1%}  "

@@ -52,7 +52,8 @@ __all__ = ["ORPHAN_POLL_S", "EvaluationInterrupted", "Job", "one_opencv_thread",
 log = logging.getLogger(__name__)
 
 #: One evaluation job: the mission spec (a path) and the seed of its world.
-Job = tuple[str, int] | tuple[str, int, tuple[str, ...]]  # (mission spec, seed[, --set overrides])
+Job = (tuple[str, int] | tuple[str, int, tuple[str, ...]]
+       | tuple[str, int, tuple[str, ...], str | None])  # (mission, seed[, --set[, engine]])
 #: Called with each result as it arrives.
 OnResult = Callable[[Any], None]
 

@@ -83,6 +83,8 @@ class RunReport:
     seed: int | None = None
     robot: str = "sim"
     camera: str = "sim"
+    # The simulator engine ("builtin" or "mujoco"); None on real hardware.
+    engine: str | None = "builtin"
     # Simulator only: the simulated Create after the run (wheels, OI mode): proof that the
     # wheels were stopped and the robot returned to Passive, whatever ended the run.
     sim_final: dict[str, Any] | None = None

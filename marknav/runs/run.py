@@ -58,6 +58,7 @@ class RunRequest:
     #: Set once :func:`execute` (or :func:`write_interrupted`) began writing the report and the
     #: log: a signal that ends the command after that needs no other report.
     finishing: bool = False
+    engine: str | None = None  # simulator engine (None: the mission's sim.engine, else builtin)
 
 
 @dataclass
@@ -70,6 +71,13 @@ class RunResult:
 def default_max_time_s(mission: Mission) -> float:
     """A generous limit: 60 s plus 40 s per waypoint of simulated (or real) time."""
     return 60.0 + 40.0 * len(mission.route)
+
+
+def engine_of(mission: Mission, req: RunRequest) -> str:
+    """The simulator engine of a run: ``--engine``, else the mission's ``sim.engine``."""
+    if req.engine is not None:
+        return req.engine
+    return mission.sim.engine if mission.sim is not None else "builtin"
 
 
 def _world_for(mission: Mission, req: RunRequest, seed: int) -> Any:
@@ -96,6 +104,7 @@ def _world_for(mission: Mission, req: RunRequest, seed: int) -> Any:
             bypass_distance_mm=mission.navigation.bypass_distance_mm,
             sides=[mission.side_of(c) for c in mission.route],
             half_fov_deg=mission.camera.hfov_deg / 2.0,
+            engine="mujoco" if engine_of(mission, req) == "mujoco" else "builtin",
         )
     return world.with_mark_radius(mission.marks.radius_mm)
 
@@ -118,7 +127,12 @@ def make_environment(mission: Mission, req: RunRequest, seed: int) -> Environmen
             command_timeout_s=mission.safety.command_timeout_s,
             sensor_timeout_s=mission.safety.sensor_timeout_s,
             wheel_base_mm=mission.robot.wheel_base_mm,
+            engine=engine_of(mission, req),
+            shadows=mission.sim.shadows if mission.sim is not None else True,
         )
+    if req.engine is not None and req.engine != "builtin":
+        raise InputError("--engine chooses the simulator; it needs --robot sim",
+                         field="--engine")
     if req.camera == "sim":
         raise InputError("--camera sim needs --robot sim; give a real camera (--camera 0, a "
                          "video file or an http:// stream) with a real robot", field="--camera")
@@ -254,6 +268,7 @@ def _unstarted_report(req: RunRequest, seed: int) -> RunReport:
     report = RunReport(
         mission=mission.name, seed=seed if req.robot == "sim" else None,
         robot=req.robot, camera=req.camera,
+        engine=engine_of(mission, req) if req.robot == "sim" else None,
         waypoints=[WaypointResult(colour=c, side=mission.side_of(c)) for c in mission.route],
         overrides=list(mission.overrides),
     )

@@ -28,7 +28,7 @@ from marknav.robot.driver import CreateDriver
 from marknav.robot.robot import Robot
 from marknav.sim import world as worldmod
 from marknav.sim.camera import CameraConfig, SimCamera
-from marknav.sim.create import SimulatedCreate
+from marknav.sim.create import Body, SimulatedCreate
 from marknav.sim.protocol_createsim import register, unregister
 from marknav.sim.truth import MarkTruth, course_truth
 from marknav.vision.palette import Palette
@@ -70,7 +70,13 @@ class GroundTruth:
 
 
 class SimEnvironment:
-    """Robot, camera and clock of a simulated run (see the module docstring)."""
+    """Robot, camera and clock of a simulated run (see the module docstring).
+
+    ``engine`` moves the robot and draws the camera's frames: ``builtin`` (the kinematic body,
+    :mod:`marknav.sim.world`'s contacts, :class:`~marknav.sim.camera.SimCamera`) or ``mujoco``
+    (:mod:`marknav.sim.mujoco`: physics, contacts and rendering; ``shadows`` for its lamps).
+    The simulated Create's Open Interface, the driver and the safety layer are the same.
+    """
 
     name = "sim"
 
@@ -86,18 +92,34 @@ class SimEnvironment:
         command_timeout_s: float = 0.3,
         sensor_timeout_s: float = 0.2,
         wheel_base_mm: float | None = None,
+        engine: str = "builtin",
+        shadows: bool = True,
     ) -> None:
         self.world = world
         self.palette = palette
         self.robot_radius_mm = robot_radius_mm
+        self.engine = engine
         self.clock = ManualClock()
         c = world.conditions
         start = world.robot.pose()
+        cam_config = camera or CameraConfig()
+        self._mujoco: Any = None
+        body: Body | None = None
+        if engine == "mujoco":
+            from marknav.sim.mujoco.body import MujocoBody
+            from marknav.sim.mujoco.model import CreateSpec
+
+            spec = CreateSpec(radius_mm=robot_radius_mm,
+                              wheel_base_mm=wheel_base_mm or CreateSpec().wheel_base_mm)
+            self._mujoco = body = MujocoBody(world, tuple(palette), camera=cam_config,
+                                             robot=spec, shadows=shadows)
+        elif engine != "builtin":
+            raise ValueError(f"unknown simulator engine {engine!r} (builtin, mujoco)")
         self.create = SimulatedCreate(
             model=model, clock=self.clock, pose=start, wheel_base_mm=wheel_base_mm,
             left_scale=1.0 - c.wheel_slip,
             right_scale=(1.0 + c.wheel_mismatch) * (1.0 - c.wheel_slip),
-            seed=seed,
+            seed=seed, body=body,
         )
         self._url = register(self.create)
         self.driver = CreateDriver(
@@ -105,8 +127,19 @@ class SimEnvironment:
             sensor_timeout_s=sensor_timeout_s, wheel_base_mm=wheel_base_mm, start_pose=start,
             first_frame_timeout_s=None, settle_s=0.0, reader_thread=False,
         )
-        self.camera = SimCamera(world, palette, pose_fn=lambda: self.create.pose,
-                                clock=self.clock, config=camera or CameraConfig(), seed=seed)
+        self.camera: Any
+        if self._mujoco is not None:
+            from marknav.sim.mujoco.camera import MujocoCamera
+
+            try:
+                self.camera = MujocoCamera(self._mujoco, clock=self.clock, seed=seed)
+            except BaseException:
+                self.driver.close()
+                unregister(self._url.split("://", 1)[1])
+                raise
+        else:
+            self.camera = SimCamera(world, palette, pose_fn=lambda: self.create.pose,
+                                    clock=self.clock, config=cam_config, seed=seed)
         self.truth = GroundTruth()
         self._in_contact = False
         self._closed = False
@@ -150,6 +183,9 @@ class SimEnvironment:
 
     # -- internals ------------------------------------------------------------------------
     def _step(self, dt: float) -> None:
+        if self._mujoco is not None:
+            self._step_mujoco(dt)
+            return
         self.create.step(dt)
         pose = self.create.pose
         r = self.robot_radius_mm
@@ -182,6 +218,31 @@ class SimEnvironment:
         elif self._in_contact:
             self.create.set_bump(False, False)
             self._in_contact = False
+        self.driver.process_input()
+
+    def _step_mujoco(self, dt: float) -> None:
+        """One sub-step on MuJoCo: the physics keeps the robot out of obstacles; the bumper
+        is the body's contacts within its travel."""
+        self.create.step(dt)
+        pressed = self._mujoco.bumper()
+        front = [c for c in pressed if c.bump_left or c.bump_right]
+        if front:
+            left = any(c.bump_left for c in front)
+            right = any(c.bump_right for c in front)
+            self.create.set_bump(left, right)
+        elif self._in_contact:
+            self.create.set_bump(False, False)
+        if pressed and not self._in_contact:
+            c = pressed[0]
+            pose = self.create.pose
+            self.truth.collisions.append({
+                "t": round(self.clock.now(), 3), "kind": c.kind, "index": c.index,
+                "x_mm": round(pose.x, 1), "y_mm": round(pose.y, 1),
+                "bump": ("both" if c.bump_left and c.bump_right else "left" if c.bump_left
+                         else "right" if c.bump_right else "none"),
+            })
+            log.warning("collision with %s %d at (%.0f, %.0f)", c.kind, c.index, pose.x, pose.y)
+        self._in_contact = bool(pressed)
         self.driver.process_input()
 
     def __enter__(self) -> SimEnvironment:

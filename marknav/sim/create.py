@@ -14,11 +14,14 @@ Bytes from the host go in with :meth:`SimulatedCreate.write`; bytes the robot se
   absolute 15 ms ticks) answer every single and group packet of the model. Distance (19) and
   angle (20) are the motion since they were last sent (the fraction not yet reported is kept,
   so nothing is lost); encoder counts (43/44, Create 2) are cumulative signed 16-bit and wrap.
-- Motion: the commanded wheel speeds turn the wheels, which is what the encoders, distance and
-  angle report; the ground moves by the commanded speed times ``left_scale``/``right_scale``
-  (wheel mismatch) and an optional random slip, integrated with
+- Motion belongs to a :class:`Body`: the OI side hands it the commanded wheel speeds for each
+  stretch of time and it answers how far each wheel turned (what the encoders, distance and angle
+  report) and where the robot is. The default :class:`KinematicBody` turns the wheels at the
+  commanded speed and moves the ground by it times ``left_scale``/``right_scale`` (wheel
+  mismatch) and an optional random slip, integrated with
   :func:`marknav.planning.kinematics.integrate_pose`. Odometry therefore cannot see slip, as on
-  the real robot.
+  the real robot. Another engine (:mod:`marknav.sim.mujoco`) supplies a body stepped by its own
+  physics; the byte handling here stays the same.
 
 Time is the simulator's own: :meth:`advance_to`, :meth:`step` (an injected
 :class:`~marknav.core.clock.ManualClock`) or :meth:`sync` (catch up to the injected clock, e.g. a
@@ -37,6 +40,7 @@ from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from threading import Condition, RLock
+from typing import Protocol, runtime_checkable
 
 from marknav.core.clock import Clock, ManualClock
 from marknav.planning.kinematics import Pose, WheelSpeeds, integrate_pose
@@ -54,7 +58,7 @@ from marknav.robot.packets import (
     packet_layout,
 )
 
-__all__ = ["CommandRecord", "LedState", "SimulatedCreate"]
+__all__ = ["Body", "CommandRecord", "KinematicBody", "LedState", "SimulatedCreate"]
 
 log = logging.getLogger(__name__)
 
@@ -82,6 +86,75 @@ class CommandRecord:
     accepted: bool
 
 
+@runtime_checkable
+class Body(Protocol):
+    """The robot's body as the simulated Create moves it: the seam between the Open Interface
+    (this module) and an engine's motion, contacts and wheel encoders.
+
+    ``drive`` applies the commanded wheel speeds (mm/s, what the robot's wheel controller aims
+    for) for ``dt`` seconds and returns how far each wheel turned, as its encoder measures it
+    (mm of nominal tyre circumference): the Create reports distance, angle and encoder counts
+    from that, never from the ground. ``pose`` is the true pose; ``set_pose`` places the robot
+    (a test, the world resolving an overlap); ``odometer_mm`` is the true path length of the
+    centre.
+    """
+
+    @property
+    def pose(self) -> Pose: ...
+
+    def set_pose(self, pose: Pose) -> None: ...
+
+    def drive(self, *, left: float, right: float, dt: float) -> tuple[float, float]: ...
+
+    @property
+    def odometer_mm(self) -> float: ...
+
+
+class KinematicBody:
+    """The built-in body: wheels turn at exactly the commanded speed; the ground moves by it
+    times ``left_scale``/``right_scale`` and a random relative slip per wheel (σ ``slip_std``
+    per call, from ``seed``), integrated with :func:`marknav.planning.kinematics.integrate_pose`
+    over ``wheel_base_mm``. No inertia: speed changes are instantaneous."""
+
+    def __init__(self, pose: Pose, *, wheel_base_mm: float, left_scale: float = 1.0,
+                 right_scale: float = 1.0, slip_std: float = 0.0,
+                 seed: int | None = None) -> None:
+        if not wheel_base_mm > 0:
+            raise ValueError(f"wheel_base_mm must be positive, got {wheel_base_mm}")
+        if slip_std < 0:
+            raise ValueError(f"slip_std must be >= 0, got {slip_std}")
+        self.wheel_base_mm = float(wheel_base_mm)
+        self.left_scale = float(left_scale)
+        self.right_scale = float(right_scale)
+        self.slip_std = float(slip_std)
+        self._rng = random.Random(seed)
+        self._pose = pose
+        self._odometer_mm = 0.0
+
+    @property
+    def pose(self) -> Pose:
+        return self._pose
+
+    def set_pose(self, pose: Pose) -> None:
+        self._pose = pose
+
+    @property
+    def odometer_mm(self) -> float:
+        return self._odometer_mm
+
+    def drive(self, *, left: float, right: float, dt: float) -> tuple[float, float]:
+        if dt <= 0 or (left == 0.0 and right == 0.0):
+            return 0.0, 0.0
+        gl, gr = left * self.left_scale, right * self.right_scale
+        if self.slip_std > 0.0:
+            gl *= 1.0 + self._rng.gauss(0.0, self.slip_std)
+            gr *= 1.0 + self._rng.gauss(0.0, self.slip_std)
+        self._pose = integrate_pose(self._pose, left=gl, right=gr, dt=dt,
+                                    wheel_base_mm=self.wheel_base_mm)
+        self._odometer_mm += abs(0.5 * (gl + gr)) * dt
+        return left * dt, right * dt
+
+
 class SimulatedCreate:
     """A simulated Create speaking the OI byte by byte (see the module docstring).
 
@@ -94,6 +167,8 @@ class SimulatedCreate:
         left_scale, right_scale: ground speed / commanded speed per wheel (wheel mismatch).
         slip_std: standard deviation of an extra random relative slip per wheel and 15 ms tick.
         seed: seed of the slip noise.
+        body: what moves (default a :class:`KinematicBody` from ``pose``, ``wheel_base_mm``,
+            the scales, ``slip_std`` and ``seed``, which are then ignored).
         max_output_bytes: bytes kept for the host before the oldest are dropped (a UART overrun).
     """
 
@@ -109,18 +184,16 @@ class SimulatedCreate:
         slip_std: float = 0.0,
         seed: int | None = None,
         max_output_bytes: int = 1 << 16,
+        body: Body | None = None,
     ) -> None:
         self.model = Model.parse(model)
         self.clock: Clock = clock if clock is not None else ManualClock()
         self.wheel_base_mm = float(wheel_base_mm or self.model.wheel_base_mm)
         if not self.wheel_base_mm > 0:
             raise ValueError(f"wheel_base_mm must be positive, got {wheel_base_mm}")
-        self.left_scale = float(left_scale)
-        self.right_scale = float(right_scale)
-        if slip_std < 0:
-            raise ValueError(f"slip_std must be >= 0, got {slip_std}")
-        self.slip_std = float(slip_std)
-        self._rng = random.Random(seed)
+        self.body: Body = body if body is not None else KinematicBody(
+            pose or Pose(0.0, 0.0, math.pi / 2), wheel_base_mm=self.wheel_base_mm,
+            left_scale=left_scale, right_scale=right_scale, slip_std=slip_std, seed=seed)
         self._lock = RLock()
         self._output_ready = Condition(self._lock)
         self._max_output = int(max_output_bytes)
@@ -128,7 +201,6 @@ class SimulatedCreate:
         self._t0 = self.clock.now()
         self._time = self._t0
         self._tick = 1  # index of the next 15 ms tick after _t0
-        self._pose = pose or Pose(0.0, 0.0, math.pi / 2)
         self._mode = OIMode.OFF
         self._in = bytearray()
         self._out = bytearray()
@@ -170,7 +242,6 @@ class SimulatedCreate:
         self._angle_acc = 0.0
         self._enc_left = 0.0
         self._enc_right = 0.0
-        self.odometer_mm = 0.0  # true path length of the centre
 
     # --- time ---------------------------------------------------------------------------------
 
@@ -310,7 +381,7 @@ class SimulatedCreate:
     def set_pose(self, pose: Pose) -> None:
         """Move the robot (the world resolving a collision, a test placing it)."""
         with self._lock:
-            self._pose = pose
+            self.body.set_pose(pose)
 
     # --- state for the world and tests --------------------------------------------------------
 
@@ -318,7 +389,13 @@ class SimulatedCreate:
     def pose(self) -> Pose:
         """The true pose (ground truth, including mismatch and slip)."""
         with self._lock:
-            return self._pose
+            return self.body.pose
+
+    @property
+    def odometer_mm(self) -> float:
+        """The true path length of the robot's centre, mm."""
+        with self._lock:
+            return self.body.odometer_mm
 
     @property
     def mode(self) -> OIMode:
@@ -357,23 +434,14 @@ class SimulatedCreate:
     def _integrate(self, dt: float) -> None:
         if dt <= 0:
             return
-        vl, vr = self._cmd_left, self._cmd_right
-        if vl == 0.0 and vr == 0.0:
+        # the body moves; what the wheels turned is what encoders, distance and angle see
+        dl, dr = self.body.drive(left=self._cmd_left, right=self._cmd_right, dt=dt)
+        if dl == 0.0 and dr == 0.0:
             return
-        # the wheels turn at the commanded speed: that is what encoders, distance, angle see
-        dl, dr = vl * dt, vr * dt
         self._enc_left += dl / MM_PER_COUNT
         self._enc_right += dr / MM_PER_COUNT
         self._dist_acc += 0.5 * (dl + dr)
         self._angle_acc += math.degrees((dr - dl) / self.wheel_base_mm)
-        # the ground moves by the wheel travel times the per-wheel scale (mismatch, slip)
-        gl, gr = vl * self.left_scale, vr * self.right_scale
-        if self.slip_std > 0.0:
-            gl *= 1.0 + self._rng.gauss(0.0, self.slip_std)
-            gr *= 1.0 + self._rng.gauss(0.0, self.slip_std)
-        self._pose = integrate_pose(self._pose, left=gl, right=gr, dt=dt,
-                                    wheel_base_mm=self.wheel_base_mm)
-        self.odometer_mm += abs(0.5 * (gl + gr)) * dt
         self._charge_mah = max(0.0, self._charge_mah + self._current_ma() * dt / 3600.0)
 
     def _current_ma(self) -> int:

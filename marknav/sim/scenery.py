@@ -128,6 +128,18 @@ def _photo_wall(rng: np.random.Generator, rows: int, cols: int) -> FloatImage | 
     return np.asarray(np.hstack(tiles)[:, :cols], np.float32)
 
 
+def room_photo(index: int, palette_ranges: Sequence[tuple[int, int]]) -> Image:
+    """Photograph ``index`` (modulo their number) of the room photographs shipped in
+    ``photos/``, its palette-coloured pixels desaturated as the built-in renderer's walls are
+    (a texture for another engine)."""
+    photos = _photos()
+    if not photos:
+        raise FileNotFoundError(f"no room photographs in {PHOTOS}")
+    image = photos[index % len(photos)].astype(np.float32)
+    _desaturate_palette(image, palette_ranges)
+    return np.asarray(np.clip(image, 0, 255), dtype=np.uint8)
+
+
 def _in_ranges(hue: float, ranges: Sequence[tuple[int, int]], margin: float) -> bool:
     for lo, hi in ranges:
         span = (hi - lo) % 180

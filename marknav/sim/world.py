@@ -40,6 +40,8 @@ from marknav.core.errors import InputError, InputErrors
 from marknav.core.yamlio import Position, load_yaml_file, parse_model
 from marknav.planning.kinematics import Pose, wrap_angle
 from marknav.sim.lens import Lens, random_lens
+from marknav.sim.mujoco.scene import MARK_YAW_MAX_DEG as MUJOCO_MARK_YAW_MAX_DEG
+from marknav.sim.mujoco.scene import MujocoScene, random_scene
 from marknav.sim.passes import Crossing, min_clearance_mm, pass_crossings, passed_on
 from marknav.sim.scenery import random_room
 from marknav.vision.palette import ColourRange
@@ -306,6 +308,9 @@ class World(_Strict):
     #: The course: the mark (index into ``marks``) each waypoint must pass, in route order; a mark
     #: may appear more than once. ``None``: the marks in file order, one per waypoint.
     course: tuple[Annotated[int, Field(ge=0)], ...] | None = None
+    #: What only the MuJoCo engine draws (lights, textures, occluders, distractors:
+    #: :class:`marknav.sim.mujoco.scene.MujocoScene`); the built-in engine ignores it.
+    mujoco: MujocoScene | None = None
 
     # Where each mark's colour sits in the source file (for check_against_palette).
     _source: str | None = PrivateAttr(default=None)
@@ -494,6 +499,7 @@ def generate_world(
     half_fov_deg: float = DEFAULT_HALF_FOV_DEG,
     start: RobotStart | None = None,
     clutter: int = Background().clutter,
+    engine: Literal["builtin", "mujoco"] = "builtin",
 ) -> World:
     """A world for ``route`` (colours in order) that the route can be driven through.
 
@@ -506,7 +512,10 @@ def generate_world(
     ``MAX_SEARCH_TURN_DEG``. After ``GENERATION_TRIES`` failed draws the offset's side flips; after
     as many again the mark goes on the axis, at the longest spacing. With
     ``conditions="randomised"`` the image/wheel conditions (:func:`random_conditions`) and every
-    mark's yaw (±``MARK_YAW_MAX_DEG``) are drawn too. Same arguments and seed → same world.
+    mark's yaw (±``MARK_YAW_MAX_DEG``) are drawn too; for ``engine="mujoco"`` the yaw goes up to
+    ±60° and the room gets MuJoCo's lights, textures, occluders and distractors
+    (:func:`marknav.sim.mujoco.scene.random_scene`, its own stream: the course is the same).
+    Same arguments and seed → same world.
     """
     if clearance_mm <= 0 or radius_mm <= 0 or bypass_distance_mm <= 0:
         raise ValueError("clearance, radius and bypass distance must be positive")
@@ -528,6 +537,8 @@ def generate_world(
     else:
         raise ValueError(f"conditions must be 'randomised', 'default' or Conditions: {conditions}")
 
+    # One draw in [-1, 1) scaled by the engine's limit: both engines' courses are the same.
+    yaw_max = MUJOCO_MARK_YAW_MAX_DEG if engine == "mujoco" else MARK_YAW_MAX_DEG
     half_fov = math.radians(half_fov_deg)
     reacquire = bypass_distance_mm + REACQUIRE_MARGIN_MM
     spacing_lo = max(SPACING_RANGE_MM[0], reacquire + clearance_mm)
@@ -575,7 +586,7 @@ def generate_world(
         if off != 0.0:
             sign = math.copysign(1.0, off)
         m = (p0.x + a * fwd[0] + off * left[0], p0.y + a * fwd[1] + off * left[1])
-        yaw = float(rng.uniform(-MARK_YAW_MAX_DEG, MARK_YAW_MAX_DEG)) if randomised else 0.0
+        yaw = float(rng.uniform(-1.0, 1.0)) * yaw_max if randomised else 0.0
         if first or not randomised:
             yaw += math.degrees(p0.theta - math.pi / 2.0)  # face the course's start direction
         else:
@@ -602,12 +613,17 @@ def generate_world(
         origins = new_origins[:4] if len(new_origins) <= 4 else [
             new_origins[0], new_origins[1], new_origins[-2], new_origins[-1]]
         sign = -sign
+    scene = None
+    if engine == "mujoco" and randomised:
+        scene = random_scene(int(seed), [(m.x_mm - p0.x, m.y_mm - p0.y) for m in marks],
+                             list(route), clearance_mm=clearance_mm)
     return World(
         marks=tuple(marks),
         robot=robot,
         conditions=cond,
         background=Background(seed=int(seed), clutter=clutter),
         course=tuple(range(len(marks))),
+        mujoco=scene,
     )
 
 

@@ -358,7 +358,7 @@ def test_open_port_uses_serial_for_url_without_flow_control() -> None:
     port = open_port("createsim://?model=create1&left_scale=0.97&seed=2", baudrate=57600)
     try:
         assert isinstance(port, protocol_createsim.Serial) and port.sim is not None
-        assert port.sim.model is Model.CREATE1 and port.sim.left_scale == 0.97
+        assert port.sim.model is Model.CREATE1 and port.sim.body.left_scale == 0.97
         assert (port.xonxoff, port.rtscts, port.dsrdtr, port.baudrate) == (False, False, False,
                                                                              57600)
         port.write(oi.start() + oi.sensors(35, model=Model.CREATE1))
