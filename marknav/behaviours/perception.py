@@ -294,10 +294,9 @@ class Perception(PerceptionBase):
                         prior=prior, min_radius_px=MIN_RADIUS_FRACTION * mission.camera.width)
                     self._range_model = prior
             if self._detector is None:
-                from marknav.vision.detector_setup import CameraDetector
+                from marknav.vision.detector_setup import mission_detector
 
-                self._detector = CameraDetector.for_mission(
-                    mission, None if self._intrinsics is None else self._intrinsics.cy)
+                self._detector = mission_detector(mission, self._camera)
             calibrate = mission.robot.calibrate_wheels
             if calibrate and self._calibrator is None:
                 self._calibrator = WheelRatioCalibrator()
