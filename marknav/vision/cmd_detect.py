@@ -96,13 +96,19 @@ def run(args: argparse.Namespace) -> int:
 
 def mark_position(mark: Mark, image_width: int, mission: Mission) -> dict[str, float]:
     """The mark's distance (mm, the mission's range law) and offset to the left of the camera's
-    axis (mm), as perception estimates them (paper eqs. 19/2 and 21)."""
-    from marknav.vision.camera_setup import mission_range_model
-    from marknav.vision.estimate import estimate
+    axis (mm), as perception estimates them (a disc at camera height: paper eqs. 19/2 from the
+    vertical semi-axis, and the bearing of its horizontal ends)."""
+    from marknav.vision.camera_setup import mission_intrinsics, mission_range_model
+    from marknav.vision.estimate import estimate_disc
 
-    est = estimate(x_px=mark.x, radius_px=mark.radius, cx=0.5 * (image_width - 1),
-                   model=mission_range_model(mission)[0],
-                   mark_radius_mm=mission.marks.radius_mm)
+    cam = mission.camera
+    intr = mission_intrinsics(mission)
+    same = image_width == cam.width
+    cx = intr.cx if intr is not None and same else 0.5 * (image_width - 1)
+    focal = intr.fx if intr is not None and same else cam.focal_px * image_width / cam.width
+    est = estimate_disc(x_px=mark.x, axes=mark.axes, angle_deg=mark.angle_deg, cx=cx,
+                        model=mission_range_model(mission)[0],
+                        mark_radius_mm=mission.marks.radius_mm, focal_px=focal)
     return {"distance_mm": round(est.distance_mm, 1), "left_mm": round(est.left_mm, 1)}
 
 
