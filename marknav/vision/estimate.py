@@ -24,8 +24,8 @@ camera) shrinks only the horizontal semi-axis, and looking at it off the axis (b
 stretches it by 1/cos β: w ≈ h·cos α / cos β. So the **range is read from h**, not from the
 longest axis (which for a disc facing the camera off to the side is w, 1/cos β too long: 10 %
 at the edge of a 57° view), and |α| = arccos(w·cos β / h) (the full width averages eq. 3's near
-and far halves, so eq. 4's perspective term drops out: within 1° beyond 0.5 m). The rim's horizontal ends lie
-on the horizontal diameter and subtend equal angles about the centre's ray for a disc facing the
+and far halves, so eq. 4's perspective term drops out: within 1° beyond 0.5 m). The rim's
+horizontal ends lie on the horizontal diameter and subtend equal angles about the centre's ray for a disc facing the
 camera: the **bearing** is the mean of the ends' angles, atan((u ± w − c_x)/f), and the lateral
 offset Z·tan β (eq. 21 on the axis: (u − c_x)·R/h).
 
@@ -204,7 +204,8 @@ def estimate_disc(
     the angles of the rim's horizontal ends (with ``focal_px``; without, eq. 21 with the
     vertical semi-axis), |α| from the axis ratio corrected for the off-axis stretch (see the
     module docstring). Exact projections: range within 2 % at 0.5 m and 0.5 % beyond 1 m for
-    turns up to 60° (the neglected √(Z² − (R·sin ψ)²)). ``radius_px`` of the result is the vertical semi-axis."""
+    turns up to 60° (the neglected √(Z² − (R·sin ψ)²)). ``radius_px`` of the result is the
+    vertical semi-axis."""
     w, h = upright_extents(axes, angle_deg)
     if not (w > 0 and h > 0):
         raise ValueError(f"axes must be positive, got {axes}")
