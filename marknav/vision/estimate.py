@@ -25,9 +25,9 @@ stretches it by 1/cos β: w ≈ h·cos α / cos β. So the **range is read from 
 longest axis (which for a disc facing the camera off to the side is w, 1/cos β too long: 10 %
 at the edge of a 57° view), and |α| = arccos(w·cos β / h) (the full width averages eq. 3's near
 and far halves, so eq. 4's perspective term drops out: within 1° beyond 0.5 m). The rim's
-horizontal ends lie on the horizontal diameter and subtend equal angles about the centre's ray for a disc facing the
-camera: the **bearing** is the mean of the ends' angles, atan((u ± w − c_x)/f), and the lateral
-offset Z·tan β (eq. 21 on the axis: (u − c_x)·R/h).
+horizontal ends lie on the horizontal diameter and subtend equal angles about the centre's ray
+for a disc facing the camera: the **bearing** is the mean of the ends' angles,
+atan((u ± w − c_x)/f), and the lateral offset Z·tan β (eq. 21 on the axis: (u − c_x)·R/h).
 
 All functions are pure; frames follow ``docs/architecture.md`` (robot frame: x forward, y left).
 """
