@@ -1,5 +1,5 @@
 """``python -m marknav`` is the same as the ``marknav`` command."""
 
-from marknav.cli import entry
+from marknav.cli.main import entry
 
 entry()

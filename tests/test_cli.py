@@ -8,7 +8,7 @@ import sys
 import pytest
 
 from marknav import __version__
-from marknav.cli import main
+from marknav.cli.main import main
 
 
 def test_version(capsys: pytest.CaptureFixture[str]) -> None:

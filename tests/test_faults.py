@@ -28,14 +28,15 @@ from typing import Any
 import pytest
 import yaml
 
-from marknav.cli import main
-from marknav.clock import MonotonicClock
-from marknav.drivers import oi, rfc2217_bridge
-from marknav.drivers.driver import CreateDriver
-from marknav.drivers.packets import OIMode
-from marknav.drivers.rfc2217_bridge import Rfc2217Bridge
-from marknav.drivers.transport import open_port
-from marknav.errors import InputError
+from marknav.cli.main import main
+from marknav.core.clock import MonotonicClock
+from marknav.core.errors import InputError
+from marknav.remote import rfc2217_bridge
+from marknav.remote.rfc2217_bridge import Rfc2217Bridge
+from marknav.robot import oi
+from marknav.robot.driver import CreateDriver
+from marknav.robot.packets import OIMode
+from marknav.robot.transport import open_port
 from marknav.sim.create import SimulatedCreate, WheelSpeeds
 from marknav.sim.pty import PtyServer
 
@@ -377,7 +378,7 @@ def test_7_a_signal_while_importing_exits_130_without_a_traceback(tmp_path: Path
     seen = []
     for line in proc.stderr:  # -X importtime: one line per finished import
         seen.append(line)
-        if line.rstrip().endswith("marknav.outputs"):  # main() imports it after install()
+        if line.rstrip().endswith("marknav.core.outputs"):  # main() imports it after install()
             proc.send_signal(sig)
             break
     code, _out, err = finish(proc, 30)
@@ -431,7 +432,7 @@ def test_7_sigterm_outside_the_loop_still_writes_everything(
 def test_7_sigint_while_loading_names_no_report(monkeypatch: pytest.MonkeyPatch,
                                                 tmp_path: Path,
                                                 capsys: pytest.CaptureFixture[str]) -> None:
-    import marknav.missions.checks as checks
+    import marknav.runs.checks as checks
 
     original = checks.load_mission
 

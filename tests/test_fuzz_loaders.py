@@ -29,8 +29,8 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from marknav.cli import main
-from marknav.errors import InputError
+from marknav.cli.main import main
+from marknav.core.errors import InputError
 from marknav.missions.schema import load_mission
 from marknav.sim.world import load_world
 from marknav.vision.calibrate import fit_table

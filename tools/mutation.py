@@ -1,7 +1,7 @@
 """Mutation testing of the modules where a silent bug is dangerous, one module at a time.
 
     nice -n 10 python tools/mutation.py safety          # one module (see MODULES)
-    nice -n 10 python tools/mutation.py driver --only 'marknav.drivers.driver.xǁCreateDriverǁclose*'
+    nice -n 10 python tools/mutation.py driver --only 'marknav.robot.driver.xǁCreateDriverǁclose*'
                                                         # only these mutants (fnmatch patterns)
     nice -n 10 python tools/mutation.py --all           # every module, smallest first
     python tools/mutation.py safety --report            # score + survivors of the last run
@@ -52,13 +52,13 @@ MODULES: dict[str, Module] = {
     "bypass": Module("marknav/behaviours/bypass.py", (
         "tests/behaviours/test_bypass.py", "tests/behaviours/test_bypass_edges.py",
         "tests/behaviours/test_route.py")),
-    "oi": Module("marknav/drivers/oi.py", (
+    "oi": Module("marknav/robot/oi.py", (
         "tests/drivers/test_oi.py", "tests/drivers/test_oi_edges.py",
         "tests/drivers/test_stream.py", "tests/drivers/test_driver.py")),
-    "driver": Module("marknav/drivers/driver.py", (
+    "driver": Module("marknav/robot/driver.py", (
         "tests/drivers/test_driver.py", "tests/drivers/test_driver_lifecycle.py",
         "tests/drivers/test_driver_odometry.py")),
-    "safety": Module("marknav/drivers/safety.py", (
+    "safety": Module("marknav/robot/safety.py", (
         "tests/drivers/test_safety.py", "tests/behaviours/test_safety.py",
         "tests/testing/test_fake_robot.py", "tests/drivers/test_driver.py")),
     # the ground truth per waypoint, from the true path alone
@@ -217,7 +217,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--max-children", type=int, default=2, help="parallel mutants (2)")
     parser.add_argument("--only", action="append", default=[], metavar="PATTERN",
                         help="check (and report) only the mutants matching this mutmut name "
-                             "pattern, e.g. 'marknav.drivers.oi.x_command_length__mutmut_*' "
+                             "pattern, e.g. 'marknav.robot.oi.x_command_length__mutmut_*' "
                              "(repeatable; one module)")
     args = parser.parse_args(argv)
     names = list(MODULES) if args.all else args.modules

@@ -19,7 +19,6 @@ ordering), so an unconditional stop there would cancel the recovery's command.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 from functools import cached_property
 from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
 
@@ -27,8 +26,8 @@ import py_trees
 from py_trees.common import Access, Status
 
 from marknav.behaviours import keys
-from marknav.clock import Clock
-from marknav.drivers.robot import Robot
+from marknav.core.clock import Clock
+from marknav.robot.robot import Robot
 
 _Blackboard = py_trees.blackboard.Blackboard
 
@@ -41,7 +40,6 @@ T = TypeVar("T")
 
 
 #: Every py_trees status (what a behaviour's update may return).
-_STATUSES = frozenset(Status)
 
 
 class SetupError(RuntimeError):
@@ -91,45 +89,6 @@ class MarknavBehaviour(py_trees.behaviour.Behaviour):
 
     # -- lifecycle -----------------------------------------------------------------------------
 
-    #: Whether :meth:`tick_now` does all that :meth:`tick` does: ``False`` for a subclass that
-    #: overrides ``tick`` (then the composites of :mod:`marknav.behaviours.composites` run its
-    #: own generator).
-    TICK_NOW: ClassVar[bool] = True
-
-    def __init_subclass__(cls, **kwargs: Any) -> None:
-        super().__init_subclass__(**kwargs)
-        if "tick" in cls.__dict__:
-            cls.TICK_NOW = False
-
-    def tick(self) -> Iterator[py_trees.behaviour.Behaviour]:
-        """py_trees' ``Behaviour.tick`` without the per-tick cost of its debug logging (an
-        f-string per tick and per stop, and a list of every Status built to check the result):
-        every leaf is ticked or stopped each control cycle. Same order of initialise, update,
-        stop (terminate) and status as py_trees 2.x: :meth:`tick_now`, then ``yield self``."""
-        self.tick_now()
-        yield self
-
-    def tick_now(self) -> None:
-        """The whole of :meth:`tick` but its ``yield``: what a composite of
-        :mod:`marknav.behaviours.composites` calls when nothing watches the nodes ticked."""
-        if self.status != Status.RUNNING:
-            self.initialise()
-        new_status = self.update()
-        # A Status member is one of _STATUSES; only anything else needs the (hashing) set test.
-        if new_status.__class__ is not Status and new_status not in _STATUSES:
-            self.logger.error(f"A behaviour returned an invalid status, setting to INVALID "
-                              f"[{new_status}][{self.name}]")
-            new_status = Status.INVALID
-        if new_status != Status.RUNNING:
-            self.stop(new_status)
-        self.status = new_status
-
-    def stop(self, new_status: Status) -> None:
-        """py_trees' ``Behaviour.stop`` without its debug-logging string."""
-        self.terminate(new_status)
-        self.status = new_status
-        self.iterator = self.tick()
-
     def setup(self, **kwargs: Any) -> None:
         """Keep ``robot``, ``clock`` and ``mission`` from the tree's setup; then :meth:`configure`.
 
@@ -140,7 +99,8 @@ class MarknavBehaviour(py_trees.behaviour.Behaviour):
         clock = kwargs.get("clock")
         if clock is not None:
             if not isinstance(clock, Clock):
-                raise TypeError(f"{self._owner}: setup(clock=...) needs a marknav.clock.Clock, "
+                raise TypeError(f"{self._owner}: setup(clock=...) needs a "
+                                f"marknav.core.clock.Clock, "
                                 f"got {clock!r}")
             self._clock = clock
         mission = kwargs.get("mission")

@@ -44,8 +44,17 @@ from marknav.behaviours.target import (
     WaypointPassed,
     waypoint_id_for,
 )
-from marknav.errors import InputError
+from marknav.core.errors import InputError
 from marknav.missions.registry import BuildContext, NodeRegistry, NoParams
+from marknav.missions.schema import Mission
+
+
+def mission_of(context: BuildContext) -> Mission | None:
+    """The build context's mission as the schema's :class:`Mission` (``None`` without one)."""
+    mission = context.mission
+    if mission is not None and not isinstance(mission, Mission):
+        raise TypeError(f"BuildContext.mission is a {type(mission).__name__}, not a Mission")
+    return mission
 
 __all__ = ["register"]
 
@@ -160,7 +169,7 @@ class WaypointParams(BaseModel):
 
 
 def _check_colour(context: BuildContext, colour: str, type_name: str) -> None:
-    mission = context.mission
+    mission = mission_of(context)
     if mission is not None and colour not in mission.marks.colours:
         known = ", ".join(mission.marks.colours)
         raise InputError(f"{type_name}: colour {colour!r} is not in marks.colours ({known})")
@@ -237,8 +246,9 @@ def _bypass(name: str, params: BypassParams, _: BuildContext) -> Behaviour:
 def _waypoint(name: str, params: WaypointParams, context: BuildContext) -> Behaviour:
     _check_colour(context, params.colour, "Waypoint")
     side = params.side
-    if side is None and context.mission is not None:
-        side = context.mission.side_of(params.colour)
+    mission = mission_of(context)
+    if side is None and mission is not None:
+        side = mission.side_of(params.colour)
     node = waypoint(params.colour, side=side, index=params.index)
     if name != "Waypoint":  # an explicit name from the file
         node.name = name
@@ -246,9 +256,10 @@ def _waypoint(name: str, params: WaypointParams, context: BuildContext) -> Behav
 
 
 def _route(name: str, _params: NoParams, context: BuildContext) -> Behaviour:
-    if context.mission is None:
+    mission = mission_of(context)
+    if mission is None:
         raise InputError("Route: needs the mission (its route) to build")
-    return route(context.mission, name=name)
+    return route(mission, name=name)
 
 
 def register(registry: NodeRegistry) -> None:

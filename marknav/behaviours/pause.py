@@ -2,7 +2,8 @@
 
 py_trees' own ``timers.Timer`` reads ``time.time()`` and ``decorators.Timeout`` reads
 ``time.monotonic()`` (field notes, py_trees 2.6), so neither follows a simulated clock that runs
-faster than real time. These two read a :class:`marknav.clock.Clock` instead. The clock is given
+faster than real time. These two read a :class:`marknav.core.clock.Clock` instead. The clock is
+given
 at construction (``clock=``) or, as for every marknav behaviour, through the tree's setup:
 ``tree.setup(clock=clock)`` hands the keyword to each node's ``setup(**kwargs)``
 (design brief, "Data flow": the clock is either real time or simulated).
@@ -19,7 +20,7 @@ from typing import Any
 import py_trees
 from py_trees.common import Status
 
-from marknav.clock import Clock
+from marknav.core.clock import Clock
 
 
 def _clock_from(kwargs: dict[str, Any], current: Clock | None, owner: str) -> Clock | None:
@@ -27,7 +28,8 @@ def _clock_from(kwargs: dict[str, Any], current: Clock | None, owner: str) -> Cl
     if clock is None:
         return current
     if not isinstance(clock, Clock):
-        raise TypeError(f"{owner}: setup(clock=...) needs a marknav.clock.Clock, got {clock!r}")
+        raise TypeError(
+            f"{owner}: setup(clock=...) needs a marknav.core.clock.Clock, got {clock!r}")
     return clock
 
 

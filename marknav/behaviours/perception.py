@@ -20,7 +20,7 @@ line of sight, unequal wheels mostly across it. With intrinsics (the mission's, 
 camera's own), every detection is undistorted (:mod:`marknav.vision.undistort`) before it is
 estimated, and the lateral offset is measured from the principal point; the law to start from is
 chosen by
-:func:`marknav.vision.camera_setup.mission_range_model`.
+:func:`marknav.missions.camera.mission_range_model`.
 
 Status: SUCCESS every tick, also when no new frame came (the previous marks stay, with their
 time), until no frame has come for ``camera_timeout_s``: then FAILURE, "camera lost", and the
@@ -52,11 +52,15 @@ from marknav.behaviours.target import (
     reselect,
     with_sighting,
 )
-from marknav.drivers.robot import BUMPED, WheelCalibratable
+from marknav.missions.camera import (
+    as_power_law,
+    mission_intrinsics,
+    mission_range_model,
+)
 from marknav.planning.kinematics import Pose, to_world_frame
 from marknav.planning.wheel_ratio import WheelRatioCalibrator, WheelRatioStep
-from marknav.vision.camera_setup import as_power_law, mission_intrinsics, mission_range_model
-from marknav.vision.estimate import Pinhole, PowerLaw, RangeModel, estimate_disc, upright_extents
+from marknav.robot.robot import BUMPED, WheelCalibratable
+from marknav.vision.estimate import RangeModel, estimate_disc, upright_extents
 from marknav.vision.range_learning import MIN_RADIUS_FRACTION, RangeLawLearner, RangeLawStep
 from marknav.vision.sources import Frame, FrameSource
 from marknav.vision.undistort import Intrinsics, undistort_mark
@@ -65,8 +69,7 @@ if TYPE_CHECKING:
     from marknav.missions.schema import Mission
     from marknav.vision.detect import Mark
 
-__all__ = ["DEFAULT_CAMERA_TIMEOUT_S", "Observation", "Perception", "PerceptionBase",
-           "range_model_of"]
+__all__ = ["DEFAULT_CAMERA_TIMEOUT_S", "Observation", "Perception", "PerceptionBase"]
 
 log = logging.getLogger(__name__)
 
@@ -90,14 +93,6 @@ class Observation:
     def __init__(self, frame: keys.FrameInfo, marks: tuple[keys.SeenMark, ...],
                  pose: Pose | None = None) -> None:
         self.__dict__.update(frame=frame, marks=marks, pose=pose)
-
-
-def range_model_of(mission: Mission) -> RangeModel:
-    """The mission's ``camera.range`` as an estimation model (eq. 19 power law or eq. 2 pinhole)."""
-    spec = mission.camera.range
-    if spec.model == "power":
-        return PowerLaw(a=spec.a, b=spec.b)
-    return Pinhole(focal_px=spec.focal_px, radius_mm=mission.marks.radius_mm)
 
 
 class PerceptionBase(MarknavBehaviour):
@@ -240,7 +235,7 @@ class Perception(PerceptionBase):
     Setup keywords: ``camera`` (a :class:`~marknav.vision.sources.FrameSource`, required),
     ``mission`` (palette, mark radius, range model), ``robot`` (odometry pose), ``clock``;
     optionally ``detector`` (anything with ``detect(image) -> list[Mark]``; default
-    :class:`~marknav.vision.detector_setup.CameraDetector` of the mission's camera: minimum
+    :class:`~marknav.missions.detector.CameraDetector` of the mission's camera: minimum
     radius and horizon prior from ``camera.detect``) and ``range_model`` (default from
     ``mission.camera.range``).
     A frame whose index repeats the previous one is not processed again.
@@ -295,7 +290,7 @@ class Perception(PerceptionBase):
                         prior=prior, min_radius_px=MIN_RADIUS_FRACTION * mission.camera.width)
                     self._range_model = prior
             if self._detector is None:
-                from marknav.vision.detector_setup import mission_detector
+                from marknav.missions.detector import mission_detector
 
                 self._detector = mission_detector(mission, self._camera)
             calibrate = mission.robot.calibrate_wheels

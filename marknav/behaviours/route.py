@@ -42,10 +42,10 @@ from typing import TYPE_CHECKING
 import py_trees
 from py_trees.behaviour import Behaviour
 from py_trees.common import Status
+from py_trees.composites import Selector, Sequence
 
 from marknav.behaviours.approach import ApproachWhileCentring
 from marknav.behaviours.bypass import BezierBypass
-from marknav.behaviours.composites import Selector, Sequence
 from marknav.behaviours.keys import Side
 from marknav.behaviours.perception import Perception
 from marknav.behaviours.safety import BackOff, NotBumped, SafetyGuard

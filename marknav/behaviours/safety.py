@@ -1,9 +1,9 @@
 """The tree's view of the safety layer: abort on a fault, back off after a bump.
 
-The safety layer (:mod:`marknav.drivers.safety`) already stops the wheels on a bump, a cliff, a
+The safety layer (:mod:`marknav.robot.safety`) already stops the wheels on a bump, a cliff, a
 wheel drop, an overcurrent, a lost sensor stream or an e-stop, and refuses forward commands until
 the condition clears; these behaviours decide what the *mission* does about it, reading
-``robot.safety_state`` (one of :data:`marknav.drivers.robot.SAFETY_STATES`):
+``robot.safety_state`` (one of :data:`marknav.robot.robot.SAFETY_STATES`):
 
 - :class:`SafetyGuard` — FAILURE at once on ``fault`` or ``estopped`` (feedback: the layer's
   ``fault_reason``) or ``disconnected``; SUCCESS otherwise. First in the reactive root, so the
@@ -27,8 +27,8 @@ from py_trees.common import Status
 
 from marknav.behaviours import keys
 from marknav.behaviours.base import DrivingBehaviour, MarknavBehaviour, check_positive, pick
-from marknav.drivers.robot import BUMPED, DISCONNECTED, ESTOPPED, FAULT
 from marknav.planning.kinematics import Pose
+from marknav.robot.robot import BUMPED, DISCONNECTED, ESTOPPED, FAULT
 
 __all__ = ["BackOff", "NotBumped", "SafetyGuard"]
 

@@ -17,8 +17,8 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from marknav.errors import InputError
-from marknav.yamlio import Loc, YamlDocument, load_yaml_text
+from marknav.core.errors import InputError
+from marknav.core.yamlio import Loc, YamlDocument, load_yaml_text
 
 _KEY = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]*(\.([A-Za-z_][A-Za-z0-9_-]*|[0-9]+))*$")
 

@@ -13,7 +13,7 @@ params_model)`` with a pydantic model (``extra="forbid"``) of the node's ``param
   into the default registry, so ``marknav schema`` and every mission see them.
 
 A plugin that cannot be imported, has no ``register`` or whose ``register`` fails is an
-:class:`~marknav.errors.InputError`: for a mission's plugin at its line in the file
+:class:`~marknav.core.errors.InputError`: for a mission's plugin at its line in the file
 (``FILE:LINE:COLUMN: plugins[0]: ...``), for an entry point naming the distribution.
 """
 
@@ -22,17 +22,16 @@ from __future__ import annotations
 import importlib
 import logging
 import sys
+import threading
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager, suppress
 from importlib import metadata
 from pathlib import Path
 from types import ModuleType
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from marknav.errors import InputError
-
-if TYPE_CHECKING:
-    from marknav.missions.registry import NodeRegistry
+from marknav.core.errors import InputError
+from marknav.missions.registry import NodeRegistry
 
 log = logging.getLogger(__name__)
 
@@ -120,7 +119,7 @@ def add_entry_point_plugins(registry: NodeRegistry) -> list[str]:
     """Load every ``marknav.nodes`` entry point into ``registry``; the names loaded, in order.
     A broken one raises :class:`InputError` naming the entry point and its distribution."""
     loaded: list[str] = []
-    for ep in sorted(_entry_points(), key=lambda e: e.name):
+    for ep in sorted(_entry_points(), key=lambda e: (e.name != "marknav", e.name)):
         dist = ep.dist.name if ep.dist is not None else "?"
         what = f"entry point {ENTRY_POINT_GROUP} {ep.name} = {ep.value} (package {dist})"
         try:
@@ -136,3 +135,42 @@ def add_entry_point_plugins(registry: NodeRegistry) -> list[str]:
         log.debug("node plugin %s loaded", what)
         loaded.append(ep.name)
     return loaded
+
+
+def registry_with_plugins(
+    modules: Sequence[str], folder: Path | None, base: NodeRegistry
+) -> tuple[NodeRegistry, list[tuple[int, str]]]:
+    """A copy of ``base`` with a mission's ``plugins`` modules registered, and the problems as
+    ``(index in modules, message)``; a module that fails adds nothing (its node types then show
+    up as unknown)."""
+    registry = base.copy()
+    problems: list[tuple[int, str]] = []
+    for i, module_name in enumerate(modules):
+        trial = registry.copy()
+        try:
+            add_module_plugin(trial, module_name, folder)
+        except PluginError as exc:
+            problems.append((i, str(exc)))
+            continue
+        registry = trial
+    return registry, problems
+
+
+_default: NodeRegistry | None = None
+_default_lock = threading.Lock()
+
+
+def default_registry() -> NodeRegistry:
+    """The process-wide registry: every installed package's node types (entry-point group
+    ``marknav.nodes``), marknav's own first among them (:mod:`marknav.behaviours.catalogue`)."""
+    global _default
+    with _default_lock:
+        if _default is None:
+            registry = NodeRegistry()
+            loaded = add_entry_point_plugins(registry)
+            if "marknav" not in loaded:
+                raise InputError(
+                    "marknav's own node types are not registered: the package's entry points "
+                    "are missing (install it with 'pip install -e .' or 'pip install marknav')")
+            _default = registry
+        return _default

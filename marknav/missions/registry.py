@@ -16,7 +16,7 @@ A node in YAML::
     children: [...]              # composites
     child: {...}                 # decorators
 
-Built in (:mod:`marknav.missions.builtin_nodes`): the py_trees composites, its
+Built in (:mod:`marknav.behaviours.builtin_nodes`): the py_trees composites, its
 status-converting decorators, ``Retry``, ``Repeat``, ``OneShot``, the leaves ``Success``,
 ``Failure``, ``Running``, ``TickCounter``, and marknav's clock-driven ``Pause`` and ``Timeout``
 (:mod:`marknav.behaviours.pause`; py_trees' own timers read the wall clock, which a simulated run
@@ -24,22 +24,18 @@ must not). ``EternalGuard`` is not offered: its condition is a Python callable, 
 cannot name safely; a Sequence with ``memory: false`` and a condition leaf first is the
 equivalent.
 
-marknav's behaviours register themselves through :func:`default_registry`: a module listed in
-:data:`BEHAVIOUR_MODULES` provides ``register(registry: NodeRegistry) -> None`` and calls
-``registry.register(type_name, factory, params_model, leaf=True)``, the same way CLI commands are
-listed in :data:`marknav.cli.COMMANDS`.
+This module is a leaf: it knows no node type. Modules register theirs into a registry — the
+built-ins, marknav's behaviours (:mod:`marknav.behaviours.nodes`) and users' plugins — and
+:func:`marknav.behaviours.catalogue.default_registry` is the registry holding all of them.
 """
 
 from __future__ import annotations
 
 import difflib
-import importlib
 import re
-import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, Protocol
 
 from py_trees.behaviour import Behaviour
 from pydantic import (
@@ -53,17 +49,13 @@ from pydantic import (
 )
 from pydantic_core import ErrorDetails, InitErrorDetails, PydanticCustomError
 
-from marknav.errors import InputError, InputErrors
+from marknav.core.errors import InputError, InputErrors
 
 if TYPE_CHECKING:
-    from marknav.missions.schema import Mission
-    from marknav.yamlio import YamlDocument
+    from marknav.core.yamlio import YamlDocument
 
 Loc = tuple[str | int, ...]
 NodeKind = Literal["composite", "decorator", "leaf"]
-
-#: Modules whose ``register(registry)`` adds node types to :func:`default_registry`.
-BEHAVIOUR_MODULES: tuple[str, ...] = ("marknav.behaviours.nodes",)
 
 #: Error type of an unknown key found by :func:`model_problems` (the message carries the
 #: did-you-mean); the mission loader points these at the key, like yamlio's own unknown keys.
@@ -125,7 +117,8 @@ class TreeNode(BaseModel):
         raw = data.model_dump() if isinstance(data, TreeNode) else data
         if isinstance(raw, Mapping):
             registry = info.context.get("registry") if isinstance(info.context, dict) else None
-            problems.extend((registry or default_registry()).check(raw))
+            if registry is not None:  # the loader passes one; without, the structure only
+                problems.extend(registry.check(raw))
         if problems:
             # pydantic 2.14 may run this validator twice for the same node when the model is
             # reached through a definition reference (the handler holds a second copy of it):
@@ -147,12 +140,21 @@ class NoParams(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
+class LoadedMission(Protocol):
+    """What building a tree needs of the loaded mission itself: its YAML document, to place
+    errors at their line. (:class:`marknav.missions.schema.Mission` is one; factories that read
+    its settings narrow it with ``isinstance``: the registry sits below the schema.)"""
+
+    @property
+    def document(self) -> YamlDocument | None: ...
+
+
 @dataclass(frozen=True)
 class BuildContext:
     """What factories may use beyond a node's own params: the loaded mission (palette, robot,
     navigation settings, and its YAML document for line-numbered errors), plus free options."""
 
-    mission: Mission | None = None
+    mission: LoadedMission | None = None
     options: Mapping[str, Any] = field(default_factory=dict)
 
 
@@ -482,7 +484,7 @@ def _fmt(loc: Sequence[str | int]) -> str:
 
 def build_tree(
     node: TreeNode,
-    registry: NodeRegistry | None = None,
+    registry: NodeRegistry,
     context: BuildContext | None = None,
     *,
     loc: Loc = ("tree",),
@@ -493,7 +495,6 @@ def build_tree(
     with another registry); problems raise :class:`InputErrors` located in the mission file when
     ``context.mission`` has one. ``loc`` is where ``node`` sits in the mission (for messages).
     """
-    registry = registry or default_registry()
     context = context or BuildContext()
     problems = registry.check(node.model_dump())
     if problems:
@@ -551,55 +552,3 @@ def _located(problems: list[InitErrorDetails], loc: Loc, context: BuildContext) 
             field=_fmt(full),
         ))
     return InputErrors(errors)
-
-
-def builtin_registry() -> NodeRegistry:
-    """A fresh registry holding only the built-in node types
-    (:mod:`marknav.missions.builtin_nodes`)."""
-    from marknav.missions.builtin_nodes import register_builtins
-
-    registry = NodeRegistry()
-    register_builtins(registry)
-    return registry
-
-
-_default: NodeRegistry | None = None
-_default_lock = threading.Lock()
-
-
-def default_registry() -> NodeRegistry:
-    """The process-wide registry: built-ins, every module in :data:`BEHAVIOUR_MODULES`, and the
-    node plugins of installed packages (entry-point group ``marknav.nodes``, see
-    :mod:`marknav.missions.plugins`)."""
-    global _default
-    with _default_lock:
-        if _default is None:
-            from marknav.missions.plugins import add_entry_point_plugins
-
-            registry = builtin_registry()
-            for module_name in BEHAVIOUR_MODULES:
-                importlib.import_module(module_name).register(registry)
-            add_entry_point_plugins(registry)
-            _default = registry
-        return _default
-
-
-def registry_with_plugins(
-    modules: Sequence[str], folder: Path | None = None, base: NodeRegistry | None = None
-) -> tuple[NodeRegistry, list[tuple[int, str]]]:
-    """A copy of ``base`` (default: :func:`default_registry`) with a mission's ``plugins``
-    modules registered, and the problems as ``(index in modules, message)``; a module that fails
-    adds nothing (its node types then show up as unknown)."""
-    from marknav.missions.plugins import PluginError, add_module_plugin
-
-    registry = (base or default_registry()).copy()
-    problems: list[tuple[int, str]] = []
-    for i, module_name in enumerate(modules):
-        trial = registry.copy()
-        try:
-            add_module_plugin(trial, module_name, folder)
-        except PluginError as exc:
-            problems.append((i, str(exc)))
-            continue
-        registry = trial
-    return registry, problems

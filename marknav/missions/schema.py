@@ -11,7 +11,7 @@ Ranges come from the hardware and the paper:
 - ``navigation.clearance_mm`` is the distance from the robot's centre to the mark's centre while
   passing it, so it must exceed the robot's radius plus the mark's radius.
 
-Loading goes through :mod:`marknav.yamlio` (safe loader, duplicate keys rejected, positions of
+Loading goes through :mod:`marknav.core.yamlio` (safe loader, duplicate keys rejected, positions of
 every node kept). Every problem is reported, as ``FILE:LINE:COLUMN: field.path: message``;
 cross-field problems point at the field the author most likely has to change: the one written in
 the file, and among those the first listed in each check.
@@ -39,22 +39,15 @@ from pydantic import (
 )
 from pydantic_core import InitErrorDetails, PydanticCustomError
 
-from marknav.errors import InputError, InputErrors
+from marknav.core.errors import InputError, InputErrors
+from marknav.core.yamlio import Loc, Position, YamlDocument, load_yaml_file, validation_errors
 from marknav.missions.overrides import Override, apply_overrides, relabel
-from marknav.missions.registry import (
-    UNKNOWN_KEY,
-    NodeRegistry,
-    TreeNode,
-    default_registry,
-    model_problems,
-    registry_with_plugins,
-)
+from marknav.missions.plugins import default_registry, registry_with_plugins
+from marknav.missions.registry import UNKNOWN_KEY, NodeRegistry, TreeNode, model_problems
 from marknav.missions.tree_checks import check_tree
 from marknav.sim.camera_model import SIM_FOCAL_PX, SIM_HEIGHT, SIM_WIDTH
 from marknav.vision.detect import DetectorConfig
-from marknav.vision.detector_setup import ROBOT_TINT_LIMIT
 from marknav.vision.palette import ColourRange, Palette
-from marknav.yamlio import Loc, Position, YamlDocument, load_yaml_file, validation_errors
 
 #: The Create's wheel speed limit (OI spec, Drive Direct: −500..500 mm/s).
 CREATE_MAX_SPEED_MM_S = 500.0
@@ -75,6 +68,10 @@ SIM_BYTES_PER_PIXEL = 340
 Hue = Annotated[int, Field(ge=0, le=179)]
 ColourName = Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_-]*$")]
 
+
+#: The robot's white-balance tint limit (``camera.detect.tint_limit``'s default): see
+#: :attr:`DetectorConfig.tint_limit`.
+ROBOT_TINT_LIMIT = 0.05
 
 def _problem(kind: str, message: str, loc: Loc, value: Any) -> InitErrorDetails:
     return InitErrorDetails(type=PydanticCustomError(kind, message), loc=loc, input=value)
@@ -259,7 +256,7 @@ class CameraIntrinsics(BaseModel):
 
 
 class DetectSettings(BaseModel):
-    """How the detector uses the camera model (``marknav.vision.detector_setup``)."""
+    """How the detector uses the camera model (``marknav.missions.detector``)."""
 
     model_config = ConfigDict(extra="forbid")
 
@@ -337,8 +334,8 @@ class Camera(BaseModel):
         description="Learn the range law while driving (odometry measures how far the robot "
         "drove toward a mark that stands still), starting from camera.range (or the "
         "intrinsics' pinhole law); the learnt law is in the report, ready to paste. On by "
-        "default: a law 25 % off then does as well as a calibrated one (README). false keeps "
-        "the law fixed.",
+        "default: a law 25 % off then does as well as a calibrated one "
+        "(docs/how-to/calibrate.md). false keeps the law fixed.",
     )
 
     @model_validator(mode="before")

@@ -129,13 +129,16 @@ class QuadraticBezier:
 
         C'(t) = 2(A + tB), so |C'| = 2|B|·sqrt(τ² + k) with τ = t + (A·B)/(B·B) and
         k = (A × B)² / (B·B)²; ∫ sqrt(τ² + k) dτ = ½[τ·sqrt(τ² + k) + k·asinh(τ/√k)]. Exact for
-        cusps (k = 0) and backtracking curves; B = 0 is the straight segment 2|A|.
+        cusps (k = 0) and backtracking curves; B = 0 is the straight segment 2|A|. A B that is
+        rounding error beside A (|B| ≤ 1e-8·|A|: P1 at the chord's middle, computed in floats)
+        is taken as 0 too: the closed form divides by B·B and would cancel catastrophically,
+        while the straight segment is then exact to a part in 10¹⁶.
         """
         ax, ay = self.p1[0] - self.p0[0], self.p1[1] - self.p0[1]
         bx = self.p0[0] - 2.0 * self.p1[0] + self.p2[0]
         by = self.p0[1] - 2.0 * self.p1[1] + self.p2[1]
         bb = bx * bx + by * by
-        if bb == 0.0:
+        if bb <= 1e-16 * (ax * ax + ay * ay):
             return 2.0 * math.hypot(ax, ay)
         shift = (ax * bx + ay * by) / bb
         k = ((ax * by - ay * bx) / bb) ** 2
@@ -149,10 +152,6 @@ class QuadraticBezier:
     def closest_point(self, point: Vec2) -> ClosestPoint:
         """The point of the curve nearest to ``point``: see :func:`closest_point`."""
         return closest_point(self, point)
-
-    def distance_to(self, point: Vec2) -> float:
-        """Exact minimum distance from ``point`` to the curve (closest-point cubic)."""
-        return closest_point(self, point).distance
 
 
 class ClosestPoint(NamedTuple):

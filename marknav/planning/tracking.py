@@ -183,12 +183,6 @@ class PurePursuit:
         return ((self.end[0] - pose.x) * self.end_direction[0]
                 + (self.end[1] - pose.y) * self.end_direction[1])
 
-    def cross_track_error(self, pose: Pose) -> float:
-        """Distance (mm) from the pose to the nearest point of the whole path."""
-        s = self._closest(pose.xy, 0.0, self.length_mm)
-        p = self.point_at(s)
-        return math.hypot(pose.x - p[0], pose.y - p[1])
-
     # -- control ---------------------------------------------------------------------------
 
     def finished(self, pose: Pose) -> bool:

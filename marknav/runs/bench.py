@@ -5,7 +5,7 @@ Each function returns a JSON-ready dict, the section ``marknav bench`` prints fo
 - :func:`bench_tree` — wall time of ``BehaviourTree.tick()`` for the default route tree
   (architecture, *The mission tree*) with mocked perception (:class:`~marknav.testing.
   FakePerception` seeing marks placed by :func:`~marknav.sim.world.generate_world`) and a
-  :class:`~marknav.testing.FakeRobot` on a :class:`~marknav.clock.ManualClock`: steady-state
+  :class:`~marknav.testing.FakeRobot` on a :class:`~marknav.core.clock.ManualClock`: steady-state
   ticks while the robot approaches and bypasses marks. Setup is excluded, and so is the fake
   robot's own simulation (it is caught up with the clock before each timed tick), so the time is
   the tree's: the perception leaf publishing the marks, the guards, target selection, approach
@@ -16,7 +16,7 @@ Each function returns a JSON-ready dict, the section ``marknav bench`` prints fo
   where the wall time goes (``breakdown_ms_per_cycle``: detector, render, the rest of the
   tick, simulation = the simulated Create, world and driver byte path, other).
 - :func:`bench_safety` — bump-to-stop latency of the safety layer alone
-  (:func:`marknav.drivers.safety_bench.measure_bump_to_stop`), and end to end through the real
+  (:func:`marknav.runs.bench_safety.measure_bump_to_stop`), and end to end through the real
   driver: a :class:`~marknav.sim.create.SimulatedCreate` behind ``createsim://`` sends a stream
   frame with the bump bit (OI packet 7), and the time is taken from the frame's bytes being
   handed to :meth:`CreateDriver.process_input` to the zero Drive Direct (opcode 145) arriving at
@@ -69,8 +69,7 @@ def _time_route_tree(mission: Mission, *, ticks: int, warmup: int, seed: int,
     seconds (this thread's: time the scheduler gave to other processes is not in it)."""
     from marknav.behaviours import keys
     from marknav.behaviours.route import build_route_tree
-    from marknav.clock import ManualClock
-    from marknav.runs.runner import MissionTree
+    from marknav.core.clock import ManualClock
     from marknav.sim.world import generate_world
     from marknav.testing import FakePerception, FakeRobot, WorldMark
 
@@ -90,7 +89,7 @@ def _time_route_tree(mission: Mission, *, ticks: int, warmup: int, seed: int,
         focal_px=mission.camera.focal_px, image_width=mission.camera.width,
         image_height=mission.camera.height)
     root = build_route_tree(mission, perception=perception)
-    tree = MissionTree(root)  # what marknav run ticks
+    tree = py_trees.trees.BehaviourTree(root)  # what marknav run ticks
     tree.setup(robot=robot, clock=clock, mission=mission)
     times: list[float] = []
     n = 0
@@ -214,11 +213,11 @@ def bench_loop(*, mission: Mission | None = None, max_time_s: float = 60.0,
 #: the camera's rendering and the detector; poll and advance are the simulated Create, the
 #: world's contacts and the driver's byte path.
 _PARTS = (
-    ("tick", "marknav.runs.runner", "MissionTree", "tick"),
+    ("tick", "py_trees.trees", "BehaviourTree", "tick"),
     ("render", "marknav.sim.camera", "Renderer", "render"),
-    ("detector", "marknav.vision.detector_setup", "CameraDetector", "detect"),
-    ("simulation", "marknav.sim.environment", "SimEnvironment", "poll"),
-    ("simulation", "marknav.sim.environment", "SimEnvironment", "advance"),
+    ("detector", "marknav.missions.detector", "CameraDetector", "detect"),
+    ("simulation", "marknav.runs.sim_environment", "SimEnvironment", "poll"),
+    ("simulation", "marknav.runs.sim_environment", "SimEnvironment", "advance"),
 )
 
 
@@ -279,9 +278,9 @@ def _breakdown(spent: dict[str, float], cycles: int, wall_s: float) -> dict[str,
 def _bump_to_stop_e2e(n: int, *, speed_mm_s: int = 200) -> list[float]:
     """Seconds from a bump frame's bytes handed to ``process_input`` to the zero Drive Direct
     bytes reaching the simulated Create; ``n`` times (see the module docstring)."""
-    from marknav.clock import ManualClock
-    from marknav.drivers import oi
-    from marknav.drivers.driver import CreateDriver
+    from marknav.core.clock import ManualClock
+    from marknav.robot import oi
+    from marknav.robot.driver import CreateDriver
     from marknav.sim.create import SimulatedCreate
     from marknav.sim.protocol_createsim import register, unregister
 
@@ -341,13 +340,13 @@ def _bump_to_stop_e2e(n: int, *, speed_mm_s: int = 200) -> list[float]:
 
 def bench_safety(*, n: int = 2000, e2e_n: int = 500) -> dict[str, Any]:
     """Bump-to-stop latency, safety layer alone (``n`` bumps) and end to end (``e2e_n``)."""
-    from marknav.drivers import safety
-    from marknav.drivers.safety_bench import measure_bump_to_stop
+    from marknav.robot import safety
+    from marknav.runs.bench_safety import measure_bump_to_stop
 
     if n < 1 or e2e_n < 1:
         raise ValueError("n and e2e_n must be ≥ 1")
     layer = measure_bump_to_stop(n)
-    quiet = [logging.getLogger(name) for name in (safety.__name__, "marknav.drivers.driver")]
+    quiet = [logging.getLogger(name) for name in (safety.__name__, "marknav.robot.driver")]
     levels = [lg.level for lg in quiet]
     for lg in quiet:
         lg.setLevel(logging.ERROR)  # time the stop path, not log handlers

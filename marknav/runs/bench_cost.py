@@ -12,9 +12,9 @@
 - ``hough``: plain ``HoughCircles`` on the grey frame (the paper's §3.3 baseline);
 - ``hsv``: one BGR→HSV conversion of the full frame (a unit of cost);
 
-on three frame sets: the synthetic frames of :func:`marknav.vision.bench.bench_frames`, the real
-photographs of the source tree's ``tests/data/real`` with their long side at 640 px, and frames
-of the simulator's randomised worlds. Per frame each function's time is the least of
+on three frame sets: the synthetic frames of :func:`marknav.runs.bench_vision.bench_frames`,
+the real photographs of the source tree's ``tests/data/real`` with their long side at 640 px,
+and frames of the simulator's randomised worlds. Per frame each function's time is the least of
 ``repeats`` runs (the order rotated every run, so load falls on all alike); reported are p50
 and p95 over the frames in ms, and the frame-by-frame ratios of the detector to each baseline.
 """
@@ -30,7 +30,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from marknav.vision.bench import Image, bench_frames, plain_hough, to_hsv
+from marknav.runs.bench_vision import Image, bench_frames, plain_hough, to_hsv
 from marknav.vision.detect import Detector
 from marknav.vision.palette import DEFAULT_PALETTE, Palette
 
@@ -77,7 +77,7 @@ def least_opencv_detector(palette: Palette, *, min_radius_px: float = MIN_RADIUS
 def photo_frames(folder: str | Path, long_side: int = 640) -> list[Image]:
     """The photographs of ``folder`` (``*.jpg``/``*.png``, by name) with their long side at
     ``long_side`` px."""
-    from marknav.vision.composite import load_photos
+    from marknav.runs.composite import load_photos
 
     out = []
     for _name, image in load_photos(folder):

@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 import marknav
-from marknav.errors import InputError
+from marknav.core.errors import InputError
 
 __all__ = ["bench_dask", "default_mission_path"]
 
@@ -53,7 +53,7 @@ def _warm_up() -> float:
 
     import marknav.runs.evaluate
     import marknav.runs.run
-    import marknav.sim.environment
+    import marknav.runs.sim_environment
     import marknav.vision.detect  # noqa: F401
 
     return sum(os.times()[:2])
@@ -76,6 +76,7 @@ def _measure(mission: str, seeds: Sequence[int], max_time_s: float, workers: int
              ) -> tuple[dict[str, Any], dict[int, dict[str, Any]]]:
     from distributed import Client, LocalCluster
 
+    from marknav.runs.evaluate import run_seed
     from marknav.runs.evaluate_backends import run_jobs
 
     t0 = time.perf_counter()
@@ -88,7 +89,7 @@ def _measure(mission: str, seeds: Sequence[int], max_time_s: float, workers: int
         cpu0: dict[str, float] = client.run(_warm_up)
         warmup_s = time.perf_counter() - t1
         t2, here0 = time.perf_counter(), time.process_time()
-        results, _ = run_jobs([(mission, s) for s in seeds], max_time_s=max_time_s,
+        results, _ = run_jobs(run_seed, [(mission, s) for s in seeds], max_time_s=max_time_s,
                               dask=cluster.scheduler_address)
         evaluation_s = time.perf_counter() - t2
         here_s = time.process_time() - here0

@@ -37,8 +37,8 @@ from typing import Any
 
 import numpy as np
 
-from marknav.errors import InputError
-from marknav.figures import save_figure
+from marknav.core.errors import InputError
+from marknav.core.figures import save_figure
 from marknav.runs.evaluate_backends import run_jobs
 from marknav.runs.report import SUCCESS, RunReport, reached
 from marknav.sim.accuracy import DEFAULT_XS_MM, DEFAULT_YS_MM
@@ -540,7 +540,8 @@ def evaluate(
         progress(0, runs, 0)
     resolve = dask is not None and path != RANDOM  # a cluster's cwd differs
     spec = str(Path(path).resolve()) if resolve else path  # a cluster's cwd differs
-    _, workers = run_jobs([(spec, s, tuple(overrides)) for s in seeds], max_time_s=max_time_s,
+    _, workers = run_jobs(run_seed, [(spec, s, tuple(overrides)) for s in seeds],
+                          max_time_s=max_time_s,
                           workers=jobs, dask=dask, on_result=done)
     ev = summarise(results, mission=name, mission_path=path,
                    clearance_mm=clearance, min_success=min_success,
@@ -645,7 +646,7 @@ def position_accuracy(mission_path: str | None = None, *, frames: int = 100,
         table = accuracy_table(xs_mm=xs, ys_mm=ys, frames=frames, seed=seed)
         return AccuracyResult(table, "default camera", grid, CameraConfig().focal_px, 100.0)
 
-    from marknav.behaviours.perception import range_model_of
+    from marknav.missions.camera import range_model_of
     from marknav.missions.schema import load_mission
 
     mission = load_mission(mission_path)
@@ -709,7 +710,9 @@ def plot_accuracy(result: AccuracyResult, out: str | Path) -> None:
     ax.set_xlabel("distance ahead y [mm]")
     ax.set_ylabel("position error e (eq. 40) [mm]")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
+    # below the axes: the curves rise to the upper right corner, where 'best' would put it
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=3,
+              frameon=False)
     ax2.plot(y, 100.0 * med / y, "o-")
     ax2.set_xlabel("distance ahead y [mm]")
     ax2.set_ylabel("median error [% of distance]")

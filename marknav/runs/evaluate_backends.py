@@ -44,7 +44,7 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
-from marknav.errors import InputError
+from marknav.core.errors import InputError
 from marknav.runs.cvthreads import one_opencv_thread
 
 __all__ = ["ORPHAN_POLL_S", "EvaluationInterrupted", "Job", "one_opencv_thread", "run_jobs"]
@@ -67,15 +67,17 @@ DASK_CONNECT_TIMEOUT_S = 10.0
 _RUN_LOCK = threading.Lock()
 
 
+#: What a job runs: ``task(mission_path, seed, max_time_s, *rest)`` -> a picklable result.
+Task = Callable[..., Any]
+
+
 class EvaluationInterrupted(KeyboardInterrupt):
     """SIGINT or SIGTERM arrived while the evaluation's runs were executing."""
 
 
-def _run(job: Job, max_time_s: float | None) -> Any:
-    from marknav.runs.evaluate import run_seed
-
+def _run(task: Task, job: Job, max_time_s: float | None) -> Any:
     with _RUN_LOCK, one_opencv_thread():
-        return run_seed(job[0], job[1], max_time_s, *job[2:])  # job[2]: --set overrides
+        return task(job[0], job[1], max_time_s, *job[2:])  # job[2]: --set overrides
 
 
 # ------------------------------------------------------------------------------ signals
@@ -119,9 +121,10 @@ def _signals_ignored(signals: tuple[signal.Signals, ...] = (signal.SIGINT, signa
 # ----------------------------------------------------------------------------- serial
 
 
-def _run_serial(jobs: Sequence[Job], max_time_s: float | None, on_result: OnResult) -> int:
+def _run_serial(task: Task, jobs: Sequence[Job], max_time_s: float | None,
+                on_result: OnResult) -> int:
     for job in jobs:
-        on_result(_run(job, max_time_s))
+        on_result(_run(task, job, max_time_s))
     return 1
 
 
@@ -143,7 +146,7 @@ def _init_worker(level: int, parent: int) -> None:
                      daemon=True).start()
 
 
-def _pool_task(job: Job, max_time_s: float | None) -> Any:
+def _pool_task(task: Task, job: Job, max_time_s: float | None) -> Any:
     """Run one job in a helper thread: a run then leaves the worker's signal handling alone
     (SIGINT ignored, SIGTERM fatal), whatever the run loop installs in a main thread."""
     out: list[Any] = []
@@ -151,7 +154,7 @@ def _pool_task(job: Job, max_time_s: float | None) -> Any:
 
     def target() -> None:
         try:
-            out.append(_run(job, max_time_s))
+            out.append(_run(task, job, max_time_s))
         except BaseException as exc:
             err.append(exc)
 
@@ -175,7 +178,7 @@ def _stop_workers(procs: Sequence[multiprocessing.process.BaseProcess]) -> None:
             p.join(1.0)
 
 
-def _run_pool(jobs: Sequence[Job], max_time_s: float | None, on_result: OnResult,
+def _run_pool(task: Task, jobs: Sequence[Job], max_time_s: float | None, on_result: OnResult,
               workers: int) -> int:
     ctx = multiprocessing.get_context("spawn")
     level = logging.getLogger().getEffectiveLevel()
@@ -188,7 +191,7 @@ def _run_pool(jobs: Sequence[Job], max_time_s: float | None, on_result: OnResult
             # The workers start (in submit) with SIGINT ignored, inherited: a Ctrl-C while one
             # is still importing cannot kill it with a traceback; the parent handles Ctrl-C.
             with _signals_ignored((signal.SIGINT,)):
-                pending: set[Future[Any]] = {pool.submit(_pool_task, job, max_time_s)
+                pending: set[Future[Any]] = {pool.submit(_pool_task, task, job, max_time_s)
                                              for job in jobs}
             procs = [p for p in multiprocessing.active_children() if p not in before]
             while pending:
@@ -228,7 +231,7 @@ def _dask_client(address: str) -> Any:
                          field="--dask") from None
 
 
-def _run_dask(jobs: Sequence[Job], max_time_s: float | None, on_result: OnResult,
+def _run_dask(task: Task, jobs: Sequence[Job], max_time_s: float | None, on_result: OnResult,
               address: str) -> int:
     from distributed import as_completed
 
@@ -238,7 +241,7 @@ def _run_dask(jobs: Sequence[Job], max_time_s: float | None, on_result: OnResult
         with _interruptible():
             workers = len(client.nthreads()) or 1
             tag = uuid.uuid4().hex[:8]
-            futures = [client.submit(_run, job, max_time_s, pure=False, retries=0,
+            futures = [client.submit(_run, task, job, max_time_s, pure=False, retries=0,
                                      key=f"marknav-{Path(job[0]).stem}-{job[1]}-{tag}")
                        for job in jobs]
             for fut in as_completed(futures, loop=client.loop):
@@ -258,9 +261,12 @@ def _run_dask(jobs: Sequence[Job], max_time_s: float | None, on_result: OnResult
 # ------------------------------------------------------------------------------- entry
 
 
-def run_jobs(jobs: Sequence[Job], *, max_time_s: float | None = None, workers: int = 1,
+def run_jobs(task: Task, jobs: Sequence[Job], *, max_time_s: float | None = None,
+             workers: int = 1,
              dask: str | None = None, on_result: OnResult | None = None) -> tuple[list[Any], int]:
-    """Run every job; return the results (completion order) and how many workers ran them.
+    """Run ``task(mission, seed, max_time_s, *rest)`` for every job ``(mission, seed, *rest)``
+    (a module-level function, so a process pool or a cluster can ship it by name); return the
+    results (completion order) and how many workers ran them.
 
     ``dask`` (a scheduler address) runs them on that cluster, else ``workers`` > 1 in a local
     process pool, else here. ``on_result`` sees each result as it arrives. Bad input raised by
@@ -274,9 +280,9 @@ def run_jobs(jobs: Sequence[Job], *, max_time_s: float | None = None, workers: i
             on_result(result)
 
     if dask is not None:
-        used = _run_dask(jobs, max_time_s, done, dask)
+        used = _run_dask(task, jobs, max_time_s, done, dask)
     elif min(workers, len(jobs)) > 1:
-        used = _run_pool(jobs, max_time_s, done, min(workers, len(jobs)))
+        used = _run_pool(task, jobs, max_time_s, done, min(workers, len(jobs)))
     else:
-        used = _run_serial(jobs, max_time_s, done)
+        used = _run_serial(task, jobs, max_time_s, done)
     return results, used

@@ -11,9 +11,9 @@ from __future__ import annotations
 import time
 from typing import Any
 
-from marknav.clock import Clock, MonotonicClock
-from marknav.drivers.driver import CreateDriver
-from marknav.drivers.robot import Robot
+from marknav.core.clock import Clock, MonotonicClock
+from marknav.robot.driver import CreateDriver
+from marknav.robot.robot import Robot
 from marknav.runs.report import RunReport
 from marknav.vision.sources import FrameSource
 

@@ -12,9 +12,9 @@ the figures that judge them are the held-out half's.
 - ``real``: the labelled photographs of ``tests/data`` (``labels.json``): recall of the labelled
   marks with the label palette, and false marks on the natural photographs with the
   red/green/blue palette (labelled and ignored objects are not false marks);
-- ``composite``: marks painted into those photographs (:mod:`marknav.vision.composite`);
+- ``composite``: marks painted into those photographs (:mod:`marknav.runs.composite`);
 - ``synthetic``: the benchmark's synthetic scenes with tilted, occluded and cast-lit marks
-  (:func:`marknav.vision.bench.render_scene`);
+  (:func:`marknav.runs.bench_vision.render_scene`);
 - ``simulator``: frames of the simulator's renderer in dim, normal and bright light, with warm,
   cool and no casts, each mark's truth the ellipse fitted to its projected rim.
 
@@ -42,7 +42,7 @@ from typing import Any, Literal
 import cv2
 import numpy as np
 
-from marknav.vision.bench import Image, SceneSpec, render_scene
+from marknav.runs.bench_vision import Image, SceneSpec, render_scene
 from marknav.vision.detect import Detector, DetectorConfig, Mark
 from marknav.vision.estimate import upright_extents
 from marknav.vision.palette import DEFAULT_PALETTE, Palette
@@ -119,7 +119,7 @@ def _near(t: Truth, m: Mark | tuple[str, float, float, float, float]) -> bool:
 
 
 def _real(root: Path) -> list[Frame]:
-    from marknav.vision.bench_real import load_corpus
+    from marknav.runs.bench_real import load_corpus
 
     photos, palette, negative = load_corpus(root)
     out = []
@@ -136,7 +136,7 @@ def _real(root: Path) -> list[Frame]:
 
 
 def _composite(root: Path, per_condition: int) -> list[Frame]:
-    from marknav.vision.composite import COMPOSITE_PALETTE, composite_frames, load_photos
+    from marknav.runs.composite import COMPOSITE_PALETTE, composite_frames, load_photos
 
     out = []
     for k, f in enumerate(composite_frames(load_photos(root / "real"),

@@ -33,9 +33,9 @@ from typing import Any, Literal
 import numpy as np
 import yaml
 
+from marknav.core.yamlio import load_yaml_text
 from marknav.missions.schema import Mission, parse_mission
 from marknav.sim import world as worldmod
-from marknav.yamlio import load_yaml_text
 
 __all__ = ["PALETTE", "RANDOM", "RandomMission", "random_mission", "replay_command",
            "write_random_mission"]

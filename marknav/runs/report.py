@@ -116,7 +116,7 @@ class RunReport:
         return d
 
     def write(self, path: str | Path) -> None:
-        """Write the report (its folder must exist: see :mod:`marknav.outputs`). A regular
+        """Write the report (its folder must exist: see :mod:`marknav.core.outputs`). A regular
         file is replaced atomically; anything else (``/dev/stdout``) is written in place.
         Raises ``OSError`` if it cannot be written (ENOSPC, EACCES…)."""
         p = Path(path)
@@ -137,7 +137,7 @@ class RunReport:
 class EventLog:
     """Append-only JSON Lines log, flushed after every event.
 
-    Opening it raises ``OSError`` (check the path first: :mod:`marknav.outputs`). A write that
+    Opening it raises ``OSError`` (check the path first: :mod:`marknav.core.outputs`). A write that
     fails later (a full disk: ENOSPC) never stops the run: the log stops there, and
     :attr:`error` says why. Times never go backwards: an event stamped earlier than the one
     before it (a safety transition seen late) is written at the later time.

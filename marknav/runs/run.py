@@ -2,7 +2,7 @@
 
 Used by ``marknav run`` and by the evaluation (many simulated runs). Everything the run needs is
 checked before the robot moves: a bad mission, world, port or camera raises
-:class:`~marknav.errors.InputError` (exit 2) and nothing starts.
+:class:`~marknav.core.errors.InputError` (exit 2) and nothing starts.
 """
 
 from __future__ import annotations
@@ -16,11 +16,11 @@ from typing import Any, TextIO
 
 import py_trees
 
-from marknav import outputs, signals
 from marknav.behaviours import keys
-from marknav.behaviours.route import build_route_tree, failure_reason
-from marknav.errors import InputError
-from marknav.missions.registry import BuildContext, build_tree
+from marknav.behaviours.route import failure_reason
+from marknav.behaviours.tree import build_mission_tree
+from marknav.core import outputs, signals
+from marknav.core.errors import InputError
 from marknav.missions.schema import Mission, load_mission
 from marknav.runs.cvthreads import one_opencv_thread
 from marknav.runs.report import ABORTED, FAILED, SUCCESS, EventLog, RunReport, WaypointResult
@@ -69,13 +69,6 @@ def default_max_time_s(mission: Mission) -> float:
     return 60.0 + 40.0 * len(mission.route)
 
 
-def build_mission_tree(mission: Mission) -> py_trees.behaviour.Behaviour:
-    """The mission's own ``tree:`` if it has one, else the default route tree."""
-    if mission.tree is not None:
-        return build_tree(mission.tree, mission.registry, BuildContext(mission=mission))
-    return build_route_tree(mission)
-
-
 def _world_for(mission: Mission, req: RunRequest, seed: int) -> Any:
     from marknav.sim import world as worldmod
 
@@ -107,8 +100,8 @@ def _world_for(mission: Mission, req: RunRequest, seed: int) -> Any:
 def make_environment(mission: Mission, req: RunRequest, seed: int) -> Environment:
     """The simulator, or a real Create and camera, as the request says."""
     if req.robot == "sim":
+        from marknav.runs.sim_environment import SimEnvironment
         from marknav.sim.camera import CameraConfig
-        from marknav.sim.environment import SimEnvironment
 
         if req.camera != "sim":
             raise InputError("--camera must be 'sim' with --robot sim (the simulated robot "
@@ -126,7 +119,7 @@ def make_environment(mission: Mission, req: RunRequest, seed: int) -> Environmen
     if req.camera == "sim":
         raise InputError("--camera sim needs --robot sim; give a real camera (--camera 0, a "
                          "video file or an http:// stream) with a real robot", field="--camera")
-    from marknav.drivers.driver import CreateDriver
+    from marknav.robot.driver import CreateDriver
     from marknav.runs.hardware import HardwareEnvironment
     from marknav.vision.sources import open_source
 
@@ -182,7 +175,7 @@ def execute(req: RunRequest) -> RunResult:
     The report (``req.report_path``) and the event log (``req.events_path``) are written in
     every case once this is called — also when the start fails (a robot that does not answer, a
     camera that cannot be opened: outcome ``aborted``, reason ``did not start: …``) and when a
-    signal arrives at any point (:mod:`marknav.signals`). What was written is listed in
+    signal arrives at any point (:mod:`marknav.core.signals`). What was written is listed in
     ``req.written``, what could not be in ``req.write_errors``. The environment (the driver:
     wheels stopped, Passive, port closed) is closed on every way out.
     """
@@ -299,10 +292,11 @@ def _recorder(req: RunRequest, root: py_trees.behaviour.Behaviour, env: Environm
 
     sinks: list[Any] = []
     if req.viewer or req.record_path is not None:
-        from marknav.runs.viewer import RerunSink
+        from marknav.runs.viewer import RECORD_FRAMES_HZ, RerunSink
 
         sinks.append(RerunSink(req.mission, getattr(env, "world", None), spawn=req.viewer,
-                               path=req.record_path))
+                               path=req.record_path,
+                               frames_hz=req.frames_hz or RECORD_FRAMES_HZ))
     view = make_view(req.out, req.tree_style, title=f"marknav run {req.mission.name}")
     if view is None and not sinks and events.path is None:
         return None
@@ -334,7 +328,7 @@ def _fill_ground_truth(mission: Mission, env: Environment, report: RunReport) ->
     truth, the path itself, and — a run is a success only if the truth says so — a route the
     tree completed but the truth denies becomes a failure with the truth's reason. Returns the
     run log's extra figures: collision points and the world mark each waypoint was matched to."""
-    from marknav.sim.environment import SimEnvironment, waypoint_truth
+    from marknav.runs.sim_environment import SimEnvironment, waypoint_truth
     from marknav.sim.truth import PASSED, truth_path
 
     if not isinstance(env, SimEnvironment):
@@ -368,7 +362,7 @@ def _fill_ground_truth(mission: Mission, env: Environment, report: RunReport) ->
 
 def _plot(mission: Mission, env: Environment, result: RunResult, path: Path,
           waypoint_marks: list[int | None] | None = None) -> None:
-    from marknav.sim.environment import SimEnvironment
+    from marknav.runs.sim_environment import SimEnvironment
     from marknav.sim.plot import plot_run
 
     if not isinstance(env, SimEnvironment):
@@ -397,5 +391,5 @@ def summary(report: RunReport) -> str:
 
 def default_run_dir(mission: Mission) -> Path:
     """A new folder under ``runs/`` named after the mission (made safe: see
-    :func:`marknav.outputs.safe_file_name`), created now."""
+    :func:`marknav.core.outputs.safe_file_name`), created now."""
     return outputs.default_run_dir(mission.name)

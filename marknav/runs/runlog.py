@@ -37,9 +37,9 @@ from typing import Any
 import numpy as np
 import py_trees
 
-from marknav import signals
 from marknav.behaviours import keys
-from marknav.errors import InputError
+from marknav.core import signals
+from marknav.core.errors import InputError
 from marknav.runs.report import EventLog, RunReport
 from marknav.runs.treeview import SUCCESS, TreeState
 

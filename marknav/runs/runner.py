@@ -23,12 +23,11 @@ from typing import Any, Protocol
 import py_trees
 from py_trees.common import Status
 
-from marknav import signals
-from marknav.behaviours.composites import tick_now
-from marknav.clock import Clock
-from marknav.drivers.robot import ESTOPPED, FAULT, Robot
+from marknav.core import signals
+from marknav.core.clock import Clock
+from marknav.core.signals import Interrupted, interrupting
+from marknav.robot.robot import ESTOPPED, FAULT, Robot
 from marknav.runs.report import ABORTED, FAILED, SUCCESS, EventLog, RunReport
-from marknav.signals import Interrupted, interrupting
 from marknav.vision.sources import FrameSource
 
 log = logging.getLogger(__name__)
@@ -96,53 +95,8 @@ class RunOptions:
 
 
 
-class MissionTree(py_trees.trees.BehaviourTree):
-    """A :class:`py_trees.trees.BehaviourTree` whose tick skips what nobody asked for.
-
-    py_trees walks the whole tree after every tick for "full" visitors even when there are none:
-    607 nodes for a 50-waypoint route, about half the tick. Here the walk happens only when a
-    full visitor is attached (the live view's SnapshotVisitor is not one). Without a partial
-    visitor either (nothing looks at the nodes as they are ticked), the tree is ticked by
-    :func:`marknav.behaviours.composites.tick_now`: the same calls in the same order, without
-    a generator per node. Behaviour is otherwise the same: handlers, visitors and ``count`` as
-    in py_trees.
-    """
-
-    def tick(
-        self,
-        pre_tick_handler: Callable[[py_trees.trees.BehaviourTree], None] | None = None,
-        post_tick_handler: Callable[[py_trees.trees.BehaviourTree], None] | None = None,
-    ) -> None:
-        if pre_tick_handler is not None:
-            pre_tick_handler(self)
-        for handler in self.pre_tick_handlers:
-            handler(self)
-        visitors = self.visitors
-        for visitor in visitors:
-            visitor.initialise()
-        partial = [v for v in visitors if not v.full]
-        full = [v for v in visitors if v.full]
-        if partial:
-            for node in self.root.tick():
-                for visitor in partial:
-                    node.visit(visitor)
-        else:  # nobody looks at the nodes as they are ticked: no generators where possible
-            tick_now(self.root)
-        if full:
-            for node in self.root.iterate():
-                for visitor in full:
-                    node.visit(visitor)
-        for visitor in visitors:
-            visitor.finalise()
-        for handler in self.post_tick_handlers:
-            handler(self)
-        if post_tick_handler is not None:
-            post_tick_handler(self)
-        self.count += 1
-
-
 #: SIGINT/SIGTERM raise :class:`Interrupted` inside the loop (the process-wide policy of
-#: :mod:`marknav.signals`, set up for the run if the CLI has not set it up for the process).
+#: :mod:`marknav.core.signals`, set up for the run if the CLI has not set it up for the process).
 _signals_interrupt = interrupting
 
 
@@ -203,7 +157,7 @@ def run_tree(
     Always stops the wheels and completes ``report`` (the caller writes it). Returns it.
     ``classify(root)`` says why a failed tree failed: ``(aborted, reason)``.
     """
-    tree = MissionTree(root)
+    tree = py_trees.trees.BehaviourTree(root)
     observer = options.observer
     period = 1.0 / options.rate_hz
     tick_times: list[float] = []

@@ -111,9 +111,6 @@ class TreeState:
             i = int(key)
             self.status[i], self.message[i] = st, msg
 
-    def copy_status(self) -> tuple[tuple[str, ...], tuple[str, ...]]:
-        return tuple(self.status), tuple(self.message)
-
     def active_path(self) -> str:
         """Names from the root down to the running leaf."""
         names = [self.names[0]] if self.names else []

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from marknav.errors import MissionFailed
+from marknav.core.errors import MissionFailed
 from marknav.planning.kinematics import Pose
 from marknav.sim.camera import CameraConfig, Renderer
 from marknav.sim.world import Background, Conditions, MarkSpec, World
@@ -45,7 +45,8 @@ def sim_calibration_table(
     :class:`CameraConfig` (640×480, f = 590 px), ``conditions`` to the default
     :class:`Conditions` (noise σ 2); the background is drawn from ``seed``.
 
-    Raises :class:`~marknav.errors.MissionFailed` if the detector misses the mark at a distance.
+    Raises :class:`~marknav.core.errors.MissionFailed` if the detector misses the mark at a
+    distance.
     """
     if frames < 1:
         raise ValueError(f"frames must be ≥ 1, got {frames}")

@@ -44,7 +44,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from marknav.clock import Clock
+from marknav.core.clock import Clock
 from marknav.planning.kinematics import Pose
 from marknav.sim.camera_model import SIM_FOCAL_PX, SIM_HEIGHT, SIM_WIDTH, sim_range_law
 from marknav.sim.lens import LensWarp, lens_warp

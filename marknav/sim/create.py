@@ -8,7 +8,7 @@ Bytes from the host go in with :meth:`SimulatedCreate.write`; bytes the robot se
   also Control 130) and Full (132). Drive, LEDs and Play are ignored outside Safe/Full; in Safe
   mode a wheel drop, or a cliff while driving forward (or spinning / backing on a radius under
   one robot radius), stops the wheels and drops to Passive. Bumps stop nothing.
-- Commands are framed with :func:`marknav.drivers.oi.command_length`: a partial command waits for
+- Commands are framed with :func:`marknav.robot.oi.command_length`: a partial command waits for
   its remaining data bytes, as on the robot. Unknown opcodes are skipped one byte at a time.
 - Sensors (142), Query List (149) and Stream (148, a frame every 15 ms of simulated time, at
   absolute 15 ms ticks) answer every single and group packet of the model. Distance (19) and
@@ -21,8 +21,8 @@ Bytes from the host go in with :meth:`SimulatedCreate.write`; bytes the robot se
   the real robot.
 
 Time is the simulator's own: :meth:`advance_to`, :meth:`step` (an injected
-:class:`~marknav.clock.ManualClock`) or :meth:`sync` (catch up to the injected clock, e.g. a
-:class:`~marknav.clock.MonotonicClock` for real time), so runs are deterministic and can go
+:class:`~marknav.core.clock.ManualClock`) or :meth:`sync` (catch up to the injected clock, e.g. a
+:class:`~marknav.core.clock.MonotonicClock` for real time), so runs are deterministic and can go
 faster than real time. All public methods are thread-safe.
 """
 
@@ -38,11 +38,12 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from threading import Condition, RLock
 
-from marknav.clock import Clock, ManualClock
-from marknav.drivers import oi
-from marknav.drivers.odometry import MM_PER_COUNT
-from marknav.drivers.oi import Opcode
-from marknav.drivers.packets import (
+from marknav.core.clock import Clock, ManualClock
+from marknav.planning.kinematics import Pose, WheelSpeeds, integrate_pose
+from marknav.robot import oi
+from marknav.robot.odometry import MM_PER_COUNT
+from marknav.robot.oi import Opcode
+from marknav.robot.packets import (
     BumpsAndWheelDrops,
     Model,
     OIMode,
@@ -52,7 +53,6 @@ from marknav.drivers.packets import (
     member_ids,
     packet_layout,
 )
-from marknav.planning.kinematics import Pose, WheelSpeeds, integrate_pose
 
 __all__ = ["CommandRecord", "LedState", "SimulatedCreate"]
 
@@ -181,7 +181,8 @@ class SimulatedCreate:
             return self._time
 
     def now(self) -> float:
-        """Same as :attr:`time`, so the simulator can serve as a :class:`~marknav.clock.Clock`."""
+        """Same as :attr:`time`, so the simulator can serve as a
+        :class:`~marknav.core.clock.Clock`."""
         return self.time
 
     def advance_to(self, t: float) -> None:
@@ -292,15 +293,6 @@ class SimulatedCreate:
         with self._lock:
             self._cliffs = (bool(left), bool(front_left), bool(front_right), bool(right))
             self._safety_check()
-
-    def set_wall(self, wall: bool) -> None:
-        """Wall sensor (packet 8; on Create 2 also light bumper right)."""
-        with self._lock:
-            self._wall = bool(wall)
-
-    def set_virtual_wall(self, seen: bool) -> None:
-        with self._lock:
-            self._virtual_wall = bool(seen)
 
     def set_light_bumper(self, bits: int) -> None:
         """Light bumper bits (packet 45, Create 2): bit0 left … bit5 right."""
@@ -677,7 +669,7 @@ def _stream_plan(
     """A stream frame of ``ids`` without its checksum as one big-endian struct, the pack
     arguments with the constant bytes (header, n, packet ids) filled in, and for every member
     packet its argument slot, raw-value getter and raw range (values are saturated to it, as
-    :func:`~marknav.drivers.packets.encode_packet` does)."""
+    :func:`~marknav.robot.packets.encode_packet` does)."""
     n = oi.stream_ids_size(model, ids)
     if n > 255:
         raise ValueError(f"a stream payload has at most 255 bytes, got {n}")

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from marknav.errors import InputError
+from marknav.core.errors import InputError
 
 
 @dataclass

@@ -4,7 +4,7 @@ Every frame projects each mark in front of the camera (``RIM_POINTS`` rim points
 polygon in by the anti-aliased fill's reach before it is drawn. As NumPy calls on 96-point
 arrays this cost ≈ 0.17 ms a frame, almost all of it the calls (≈ 7 % of a simulated control
 cycle); :func:`rim_projection` and :func:`inset` do the same arithmetic in one compiled call
-each (:mod:`marknav.compiled`). ``tests/sim/test_camera_fast_paths.py`` checks the projection
+each (:mod:`marknav.core.compiled`). ``tests/sim/test_camera_fast_paths.py`` checks the projection
 bit for bit against one-rim-at-a-time NumPy and the inset against the NumPy inset it replaced.
 """
 
@@ -13,17 +13,37 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
-from marknav.compiled import compiled_ieee
+from marknav.core.compiled import compiled_ieee
 
 if TYPE_CHECKING:
     from marknav.planning.kinematics import Pose
-    from marknav.sim.camera import CameraConfig
     from marknav.sim.world import World
+
+
+class CameraConfig(Protocol):
+    """What projecting needs of a pinhole camera (:class:`marknav.sim.camera.CameraConfig` is
+    one): image size (px), focal length and principal point (px), the camera's offset ahead of
+    the robot's centre and its near plane (mm)."""
+
+    @property
+    def width(self) -> int: ...
+    @property
+    def height(self) -> int: ...
+    @property
+    def focal_px(self) -> float: ...
+    @property
+    def cx(self) -> float: ...
+    @property
+    def cy(self) -> float: ...
+    @property
+    def forward_offset_mm(self) -> float: ...
+    @property
+    def near_mm(self) -> float: ...
 
 __all__ = ["RIM_POINTS", "MarkGeometry", "ProjectedMark", "clip_near", "inset", "rim_projection",
            "warm_up"]

@@ -2,7 +2,7 @@
 
 pyserial's :func:`serial.serial_for_url` imports ``<package>.protocol_<scheme>`` for every package
 in ``serial.protocol_handler_packages`` and uses its ``Serial`` class;
-:func:`marknav.drivers.transport.register_url_schemes` (or :func:`register_scheme` here) adds
+:func:`marknav.robot.transport.register_url_schemes` (or :func:`register_scheme` here) adds
 ``marknav.sim`` to that list. URL forms::
 
     createsim://?model=create2            a new simulated robot on wall-clock (monotonic) time
@@ -26,7 +26,7 @@ from typing import Any
 import serial
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException
 
-from marknav.clock import MonotonicClock
+from marknav.core.clock import MonotonicClock
 from marknav.sim.create import SimulatedCreate
 
 __all__ = ["Serial", "lookup", "register", "register_scheme", "unregister"]

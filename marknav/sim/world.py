@@ -4,7 +4,7 @@ Implements the world part of issue 5 (the simulator), in the frames of ``docs/ar
 world x east, y north, heading θ counter-clockwise from +x, millimetres; degrees only in the file
 (keys ending in ``_deg``).
 
-- A **world file** (YAML, validated by the pydantic models below through :mod:`marknav.yamlio`,
+- A **world file** (YAML, validated by the pydantic models below through :mod:`marknav.core.yamlio`,
   unknown keys rejected everywhere) lists the marks, the robot's start pose, walls and boxes,
   image/wheel conditions and the background seed. :func:`load_world` reads one;
   :func:`check_against_palette` checks its colours against a mission's palette.
@@ -36,13 +36,13 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, field_validator, model_validator
 
-from marknav.errors import InputError, InputErrors
+from marknav.core.errors import InputError, InputErrors
+from marknav.core.yamlio import Position, load_yaml_file, parse_model
 from marknav.planning.kinematics import Pose, wrap_angle
 from marknav.sim.lens import Lens, random_lens
 from marknav.sim.passes import Crossing, min_clearance_mm, pass_crossings, passed_on
 from marknav.sim.scenery import random_room
 from marknav.vision.palette import ColourRange
-from marknav.yamlio import Position, load_yaml_file, parse_model
 
 __all__ = [
     "BOTH_BUMPS_HALF_ANGLE_DEG",

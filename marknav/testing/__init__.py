@@ -2,7 +2,7 @@
 
 Installing marknav registers a pytest plugin (entry point ``pytest11``) with these fixtures:
 
-- ``manual_clock`` — a :class:`~marknav.clock.ManualClock` at t = 0;
+- ``manual_clock`` — a :class:`~marknav.core.clock.ManualClock` at t = 0;
 - ``fake_robot`` — a :class:`FakeRobot` on that clock, connected, at the origin facing +y;
 - ``fake_perception`` — a :class:`FakePerception` (named ``Perception``) with no marks yet;
 - ``blackboard`` — clears py_trees' process-global blackboard before and after the test;
@@ -35,7 +35,7 @@ Example — a whole waypoint, approach and bypass, closed loop::
         assert fake_robot.wheels == (0, 0)                 # stopped at the end
 """
 
-from marknav.clock import ManualClock
+from marknav.core.clock import ManualClock
 from marknav.testing.missions import BASE_MISSION, make_mission
 from marknav.testing.perception import FakePerception, RobotMark, WorldMark, pinhole_pixels
 from marknav.testing.robot import DriveRequest, FakeRobot, WheelCommand

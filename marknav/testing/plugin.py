@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from marknav.clock import ManualClock
+from marknav.core.clock import ManualClock
 
 if TYPE_CHECKING:
     from marknav.missions.schema import Mission

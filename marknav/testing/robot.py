@@ -1,7 +1,7 @@
 """A fake robot for behaviour tests: the real safety layer, an integrated pose, injectable trouble.
 
-:class:`FakeRobot` satisfies :class:`marknav.drivers.robot.Robot`. Its wheel commands go through
-the real :class:`marknav.drivers.safety.SafetyLayer` (so bumps, faults, e-stops, the command
+:class:`FakeRobot` satisfies :class:`marknav.robot.robot.Robot`. Its wheel commands go through
+the real :class:`marknav.robot.safety.SafetyLayer` (so bumps, faults, e-stops, the command
 watchdog and the back-off rule behave exactly as on the Create), into a recording sink. Time comes
 from the injected clock: whenever the robot is used it catches up with the clock in 15 ms steps
 (the Create's sensor-stream period), integrating the pose from the wheel speeds the sink last
@@ -19,9 +19,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from marknav.clock import Clock, ManualClock
-from marknav.drivers.safety import SafetyEvent, SafetyFlags, SafetyLayer
+from marknav.core.clock import Clock, ManualClock
 from marknav.planning.kinematics import Pose, integrate_pose
+from marknav.robot.safety import SafetyEvent, SafetyFlags, SafetyLayer
 
 __all__ = ["DriveRequest", "FakeRobot", "WheelCommand"]
 
@@ -72,7 +72,7 @@ class FakeRobot:
     """A simulated differential-drive robot with the real safety layer in front of its wheels.
 
     Args:
-        clock: the test's clock (a :class:`~marknav.clock.ManualClock`, usually).
+        clock: the test's clock (a :class:`~marknav.core.clock.ManualClock`, usually).
         pose: start pose (world frame; default at the origin facing +y, θ = π/2).
         wheel_base_mm: distance between the wheels.
         max_wheel_mm_s: the safety layer's wheel limit (both wheels scaled together above it).
@@ -81,7 +81,7 @@ class FakeRobot:
         connect: connect the safety layer at once (state ``ready``).
 
     Injection: :meth:`bump`, :meth:`release_bump`, :meth:`set_sensors` (any
-    :class:`~marknav.drivers.safety.SafetyFlags` field: ``cliff_front_left=True`` latches a
+    :class:`~marknav.robot.safety.SafetyFlags` field: ``cliff_front_left=True`` latches a
     fault), :meth:`estop`, :meth:`lose_link`, :meth:`reset`, and :attr:`sensors_streaming`
     (``False`` stops the sensor stream, which trips the sensor watchdog).
 

@@ -9,7 +9,7 @@ import py_trees
 from py_trees.behaviour import Behaviour
 from py_trees.common import Status
 
-from marknav.clock import ManualClock
+from marknav.core.clock import ManualClock
 
 __all__ = ["TickLog", "TickRecord", "active_path", "tick_until"]
 

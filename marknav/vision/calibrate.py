@@ -20,9 +20,9 @@ from typing import Any
 
 import numpy as np
 
-from marknav.errors import InputError
-from marknav.figures import save_figure
-from marknav.inputfile import MAX_TABLE_BYTES, read_text
+from marknav.core.errors import InputError
+from marknav.core.figures import save_figure
+from marknav.core.inputfile import MAX_TABLE_BYTES, read_text
 from marknav.vision.estimate import PowerLaw
 
 HEADER = ("radius_px", "distance_mm")
@@ -53,10 +53,6 @@ class CalibrationRow:
     @property
     def rel_error(self) -> float:
         return (self.fitted_mm - self.distance_mm) / self.distance_mm
-
-    @property
-    def log_residual(self) -> float:
-        return math.log(self.distance_mm) - math.log(self.fitted_mm)
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {
@@ -239,5 +235,7 @@ def plot_fit(fit: PowerFit, out: str | Path, title: str = "Range calibration") -
     ax.set_ylabel("distance d [mm]")
     ax.set_title(title)
     ax.grid(True, alpha=0.3)
-    ax.legend()
+    # below the axes: inside, it would sit on the measured rows or the curve
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, fontsize=8,
+              frameon=False)
     save_figure(fig, out)

@@ -2,11 +2,11 @@
 
 A 370-byte PNG can claim 100000 × 100000 pixels; OpenCV would then either refuse with its own
 exception or try to allocate tens of gigabytes. Here the file is read through
-:func:`marknav.inputfile.read_bytes` (a regular file, at most
-:data:`~marknav.inputfile.MAX_IMAGE_BYTES`), its width and height are read from the header of
+:func:`marknav.core.inputfile.read_bytes` (a regular file, at most
+:data:`~marknav.core.inputfile.MAX_IMAGE_BYTES`), its width and height are read from the header of
 the formats marknav accepts (PNG, JPEG, BMP, TIFF, WebP, PNM), and only an image of at most
 :data:`MAX_IMAGE_PIXELS` is handed to ``cv2.imdecode``. Any other format, a header that cannot
-be read, or a decoder failure is an :class:`~marknav.errors.InputError` naming the file.
+be read, or a decoder failure is an :class:`~marknav.core.errors.InputError` naming the file.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from marknav.errors import InputError
-from marknav.inputfile import MAX_IMAGE_BYTES, read_bytes
+from marknav.core.errors import InputError
+from marknav.core.inputfile import MAX_IMAGE_BYTES, read_bytes
 
 __all__ = ["MAX_IMAGE_PIXELS", "decode_image", "image_size", "read_image"]
 

@@ -246,7 +246,6 @@ class RangeLawLearner:
             the lens and the detector measure the radius within a pixel).
         min_radius_px: no sightings of marks smaller than this (the caller sets it from the
             image width: :data:`MIN_RADIUS_FRACTION`).
-        settle_sigma: :attr:`settled` once σ of ln d₀ is at most this.
     """
 
     prior: PowerLaw
@@ -273,7 +272,6 @@ class RangeLawLearner:
     max_turn_rad: float = 0.01
     max_bearing_rad: float = 0.2
     min_radius_px: float = 0.0
-    settle_sigma: float = 0.03
     steps: list[RangeLawStep] = field(default_factory=list)
     rejected: int = 0
     _sightings: list[Sighting] = field(default_factory=list)
@@ -305,13 +303,6 @@ class RangeLawLearner:
     @property
     def samples(self) -> int:
         return len(self._sightings)
-
-    @property
-    def settled(self) -> bool:
-        """Whether a fit was accepted and the scale is known to ``settle_sigma``: until then
-        the marks' positions smear with the law's error, and whatever else learns from them
-        (the wheel ratio) should wait."""
-        return bool(self.steps) and self.sigma[0] <= self.settle_sigma
 
     @property
     def sigma(self) -> tuple[float, float]:

@@ -11,7 +11,7 @@ import pytest
 from py_trees.behaviour import Behaviour
 from py_trees.common import Status
 
-from marknav.clock import ManualClock
+from marknav.core.clock import ManualClock
 from marknav.missions.schema import Mission
 from marknav.testing import FakePerception, FakeRobot, TickLog, tick_until
 

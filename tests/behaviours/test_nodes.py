@@ -10,10 +10,11 @@ from marknav.behaviours import keys
 from marknav.behaviours.approach import ApproachWhileCentring
 from marknav.behaviours.base import SetupError
 from marknav.behaviours.bypass import BezierBypass
+from marknav.behaviours.catalogue import builtin_registry
 from marknav.behaviours.nodes import register
 from marknav.behaviours.route import build_route_tree
-from marknav.errors import InputError
-from marknav.missions.registry import BuildContext, TreeNode, build_tree, builtin_registry
+from marknav.core.errors import InputError
+from marknav.missions.registry import BuildContext, TreeNode, build_tree
 
 TYPES = ["ApproachWhileCentring", "BackOff", "BezierBypass", "BumpRecovery", "NotBumped",
          "Perception", "Route", "SafetyGuard", "SearchWhenLost", "SelectTarget", "TargetLocked",

@@ -9,8 +9,9 @@ import pytest
 from py_trees.common import Status
 
 from marknav.behaviours import keys
-from marknav.behaviours.perception import Perception, range_model_of
+from marknav.behaviours.perception import Perception
 from marknav.behaviours.route import build_route_tree, failure_reason
+from marknav.missions.camera import range_model_of
 from marknav.planning.kinematics import Pose
 from marknav.testing import FakeRobot
 from marknav.vision.estimate import Pinhole, PowerLaw

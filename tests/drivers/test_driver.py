@@ -15,13 +15,13 @@ from typing import Any
 import pytest
 from serial import SerialException
 
-from marknav.clock import ManualClock
-from marknav.drivers import oi
-from marknav.drivers.driver import CreateDriver, default_stream_ids
-from marknav.drivers.oi import Model, OIMode, Opcode
-from marknav.drivers.transport import SerialPort, open_port
-from marknav.errors import InputError
+from marknav.core.clock import ManualClock
+from marknav.core.errors import InputError
 from marknav.planning.kinematics import Pose
+from marknav.robot import oi
+from marknav.robot.driver import CreateDriver, default_stream_ids
+from marknav.robot.oi import Model, OIMode, Opcode
+from marknav.robot.transport import SerialPort, open_port
 from marknav.sim import protocol_createsim
 from marknav.sim.create import SimulatedCreate
 

@@ -14,12 +14,12 @@ from typing import Any
 import pytest
 from serial import SerialException
 
-from marknav.clock import ManualClock
-from marknav.drivers import oi
-from marknav.drivers.driver import CreateDriver
-from marknav.drivers.oi import OIMode, Opcode
-from marknav.drivers.transport import SerialPort, open_port
-from marknav.errors import InputError
+from marknav.core.clock import ManualClock
+from marknav.core.errors import InputError
+from marknav.robot import oi
+from marknav.robot.driver import CreateDriver
+from marknav.robot.oi import OIMode, Opcode
+from marknav.robot.transport import SerialPort, open_port
 from marknav.sim import protocol_createsim
 from marknav.sim.create import SimulatedCreate
 

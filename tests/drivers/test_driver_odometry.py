@@ -6,9 +6,9 @@ import math
 
 import pytest
 
-from marknav.drivers.odometry import MM_PER_COUNT, Odometry, counts_delta, counts_to_mm
-from marknav.drivers.packets import Model, SensorState
 from marknav.planning.kinematics import Pose
+from marknav.robot.odometry import MM_PER_COUNT, Odometry, counts_delta, counts_to_mm
+from marknav.robot.packets import Model, SensorState
 
 
 def test_counts_delta_wraps_the_short_way() -> None:

@@ -7,9 +7,9 @@ from collections.abc import Callable
 
 import pytest
 
-from marknav.drivers import oi
-from marknav.drivers.oi import Model, OIMode, Opcode
-from marknav.drivers.packets import (
+from marknav.robot import oi
+from marknav.robot.oi import Model, OIMode, Opcode
+from marknav.robot.packets import (
     BumpsAndWheelDrops,
     Buttons,
     LightBumper,
@@ -251,7 +251,7 @@ def test_drive_radius_read_back_signed_is_straight() -> None:
 
 
 def test_list_lengths_at_their_limits() -> None:
-    from marknav.drivers.oi import query_list, stream, stream_frame
+    from marknav.robot.oi import query_list, stream, stream_frame
 
     m = Model.CREATE2
     assert query_list([7], model=m) == bytes([149, 1, 7])
@@ -269,7 +269,7 @@ def test_list_lengths_at_their_limits() -> None:
 
 
 def test_songs_at_their_limits_and_what_is_wrong_is_named() -> None:
-    from marknav.drivers.oi import play, song
+    from marknav.robot.oi import play, song
 
     sixteen = [(60, 8)] * 16
     assert song(0, sixteen, model=Model.CREATE2)[:3] == bytes([140, 0, 16])
@@ -312,7 +312,7 @@ def test_with_packets_is_a_replace_of_the_decoded_fields(model: Model) -> None:
     import dataclasses
     import random
 
-    from marknav.drivers.packets import encode_packet, state_updates
+    from marknav.robot.packets import encode_packet, state_updates
 
     rng = random.Random(7)
     ids = [7, 8, 9, 10, 11, 12, 14, 19, 20, 3, 5] + ([43, 44] if model is C2 else [])

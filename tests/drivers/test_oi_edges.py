@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import pytest
 
-from marknav.drivers import oi
-from marknav.drivers.oi import Model, Opcode, StreamParser
+from marknav.robot import oi
+from marknav.robot.oi import Model, Opcode, StreamParser
 
 C1, C2 = Model.CREATE1, Model.CREATE2
 

@@ -20,15 +20,15 @@ from typing import Any
 import pytest
 import serial
 
-from marknav import cli
-from marknav.clock import MonotonicClock
-from marknav.drivers import oi
-from marknav.drivers.driver import CreateDriver
-from marknav.drivers.oi import Model, OIMode, Opcode
-from marknav.drivers.rfc2217_bridge import OIFramer, Rfc2217Bridge
-from marknav.drivers.transport import SerialPort, open_port
-from marknav.errors import InputError
+from marknav.cli import main as cli
+from marknav.core.clock import MonotonicClock
+from marknav.core.errors import InputError
 from marknav.planning.kinematics import WheelSpeeds
+from marknav.remote.rfc2217_bridge import OIFramer, Rfc2217Bridge
+from marknav.robot import oi
+from marknav.robot.driver import CreateDriver
+from marknav.robot.oi import Model, OIMode, Opcode
+from marknav.robot.transport import SerialPort, open_port
 from marknav.sim import protocol_createsim
 from marknav.sim.create import SimulatedCreate
 from marknav.sim.pty import PtyServer
@@ -169,7 +169,7 @@ def test_a_half_sent_command_is_completed_before_the_stop(rig: Rig) -> None:
 def test_a_silent_client_gets_the_wheels_stopped_but_stays_connected(
         caplog: pytest.LogCaptureFixture) -> None:
     rig = Rig(idle_stop_s=0.3)
-    caplog.set_level(logging.INFO, logger="marknav.drivers.rfc2217_bridge")
+    caplog.set_level(logging.INFO, logger="marknav.remote.rfc2217_bridge")
     try:
         sim = rig.sim
         client = serial.serial_for_url(rig.bridge.url, baudrate=115200, timeout=0.05)

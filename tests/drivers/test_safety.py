@@ -14,8 +14,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 from transitions import MachineError
 
-from marknav.clock import ManualClock
-from marknav.drivers.safety import (
+from marknav.core.clock import ManualClock
+from marknav.robot.safety import (
     EVENTS,
     SafetyEvent,
     SafetyFlags,
@@ -658,7 +658,7 @@ def test_estop_before_connect_latches_and_resets_to_disconnected() -> None:
 
 
 def test_transition_log_uses_the_injected_clock(caplog: pytest.LogCaptureFixture) -> None:
-    caplog.set_level(logging.INFO, logger="marknav.drivers.safety")
+    caplog.set_level(logging.INFO, logger="marknav.robot.safety")
     layer, _, clock = make(start=100.0)
     layer.connect()
     clock.set(100.125)
@@ -669,7 +669,7 @@ def test_transition_log_uses_the_injected_clock(caplog: pytest.LogCaptureFixture
     layer.on_sensors(flags(bump_left=True))
     assert [(e.t, e.event, e.state) for e in layer.events] == [
         (100.0, "connect", "ready"), (100.25, "drive", "driving"), (100.265, "bump", "bumped")]
-    records = [r for r in caplog.records if r.name == "marknav.drivers.safety"]
+    records = [r for r in caplog.records if r.name == "marknav.robot.safety"]
     messages = [r.getMessage() for r in records]
     assert messages == [
         "t=100.000 safety connect: disconnected -> ready (link up)",
@@ -740,7 +740,7 @@ def test_backoff_is_only_backward_even_by_a_fraction() -> None:
 
 
 def test_reset_refusals_say_what_blocks_them(caplog: pytest.LogCaptureFixture) -> None:
-    caplog.set_level(logging.INFO, logger="marknav.drivers.safety")
+    caplog.set_level(logging.INFO, logger="marknav.robot.safety")
     layer, _, clock = make(sensor_timeout_s=0.25)
     layer.connect()
     layer.estop("test")

@@ -11,9 +11,9 @@ from collections.abc import Callable
 
 import pytest
 
-from marknav.clock import ManualClock
-from marknav.drivers.safety import SafetyFlags, SafetyLayer, SafetyState
-from marknav.drivers.safety_bench import measure_bump_to_stop
+from marknav.core.clock import ManualClock
+from marknav.robot.safety import SafetyFlags, SafetyLayer, SafetyState
+from marknav.runs.bench_safety import measure_bump_to_stop
 
 CLEAR = SafetyFlags()
 BUMP = dataclasses.replace(CLEAR, bump_left=True)
@@ -107,7 +107,7 @@ class Timeline(logging.Handler):
 def test_reader_and_controller_threads_do_not_deadlock_and_keep_the_bump_rule() -> None:
     clock = ManualClock()
     timeline = Timeline()
-    safety_logger = logging.getLogger("marknav.drivers.safety")
+    safety_logger = logging.getLogger("marknav.robot.safety")
     old_level = safety_logger.level
     safety_logger.setLevel(logging.INFO)
     safety_logger.addHandler(timeline)

@@ -6,9 +6,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from marknav.drivers import oi
-from marknav.drivers.oi import Model, OIMode, StreamParser
-from marknav.drivers.packets import SensorState, encode_packet, packet_table
+from marknav.robot import oi
+from marknav.robot.oi import Model, OIMode, StreamParser
+from marknav.robot.packets import SensorState, encode_packet, packet_table
 
 C1, C2 = Model.CREATE1, Model.CREATE2
 

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import pytest
 
-from marknav.cli import main
+from marknav.cli.main import main
 
 MISSIONS = Path(__file__).resolve().parents[2] / "missions"
 
@@ -132,16 +131,6 @@ def test_missing_world_file_points_at_sim_world(
         "marknav validate: 1 of 1 mission file invalid",
     ]
 
-
-def test_world_skipped_without_the_simulator(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
-) -> None:
-    (tmp_path / "w.yaml").write_text("not: a world\n")
-    mission = tmp_path / "m.yaml"
-    mission.write_text(MISSION + "sim: {world: w.yaml}\n")
-    monkeypatch.setitem(sys.modules, "marknav.sim.world", None)  # import now fails
-    assert run([str(mission)], capsys) == (
-        0, f"{mission}: ok (route: red → green, 2 waypoints)\n", "")
 
 
 def test_usage_needs_a_mission(capsys: pytest.CaptureFixture[str]) -> None:

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
-from marknav.missions.checks import checked_mission
+from marknav.runs.checks import checked_mission
 from marknav.runs.run import RunRequest, execute, pass_times
-from marknav.sim.environment import SimEnvironment
+from marknav.runs.sim_environment import SimEnvironment
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "missions" / "pause-at-each-mark.yaml"
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from marknav.cli import main
+from marknav.cli.main import main
 
 CORPUS = Path(__file__).resolve().parents[1] / "data" / "broken-missions"
 BROKEN = sorted(CORPUS.glob("*.yaml"))

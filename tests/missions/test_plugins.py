@@ -14,10 +14,10 @@ from pathlib import Path
 
 import pytest
 
-from marknav.cli import main
-from marknav.drivers.oi import Opcode
-from marknav.missions.checks import checked_mission
+from marknav.cli.main import main
 from marknav.missions.schema import mission_json_schema
+from marknav.robot.oi import Opcode
+from marknav.runs.checks import checked_mission
 from marknav.runs.run import RunRequest, execute
 
 PKG = Path(__file__).resolve().parents[1] / "data" / "plugin_pkg"
@@ -189,14 +189,14 @@ def test_a_broken_entry_point_is_an_input_error(
 ) -> None:
     from importlib.metadata import EntryPoint
 
-    from marknav.missions import plugins, registry
+    from marknav.missions import plugins
 
     broken = EntryPoint(name="broken", value="no_such_marknav_nodes_module", group="marknav.nodes")
     monkeypatch.setattr(plugins, "_entry_points", lambda: (broken,))
-    monkeypatch.setattr(registry, "_default", None)  # rebuilt with the broken entry point
+    monkeypatch.setattr(plugins, "_default", None)  # rebuilt with the broken entry point
     assert main(["validate", str(PKG.parents[2] / "missions" / "slalom.yaml")]) == 2
     assert capsys.readouterr().err.splitlines() == [
         "entry point marknav.nodes broken = no_such_marknav_nodes_module (package ?): loading "
         "failed: ModuleNotFoundError: No module named 'no_such_marknav_nodes_module'",
         "marknav validate: 1 of 1 mission file invalid"]
-    monkeypatch.setattr(registry, "_default", None)  # not cached: the next test rebuilds it
+    monkeypatch.setattr(plugins, "_default", None)  # not cached: the next test rebuilds it

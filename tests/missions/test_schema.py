@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from marknav.errors import InputError
+from marknav.core.errors import InputError
 from marknav.missions.schema import Mission, PinholeRange, PowerRange, load_mission
 from marknav.sim.camera_model import SIM_RANGE_A, SIM_RANGE_B
 from marknav.vision.palette import ColourRange

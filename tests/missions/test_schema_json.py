@@ -7,7 +7,7 @@ from typing import Any
 
 import pytest
 
-from marknav.cli import main
+from marknav.cli.main import main
 from marknav.missions.schema import mission_json_schema
 
 

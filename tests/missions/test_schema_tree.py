@@ -12,19 +12,19 @@ import pytest
 from py_trees.common import OneShotPolicy, ParallelPolicy, Status
 from pydantic import BaseModel, ConfigDict, Field
 
+from marknav.behaviours import builtin_nodes, catalogue
+from marknav.behaviours.catalogue import builtin_registry
 from marknav.behaviours.pause import Pause, Timeout
-from marknav.clock import ManualClock
-from marknav.errors import InputError, InputErrors
-from marknav.missions import builtin_nodes
-from marknav.missions import registry as registry_module
+from marknav.core.clock import ManualClock
+from marknav.core.errors import InputError, InputErrors
+from marknav.missions import plugins as plugins_module
+from marknav.missions.plugins import default_registry
 from marknav.missions.registry import (
     BuildContext,
     NodeRegistry,
     NoParams,
     TreeNode,
     build_tree,
-    builtin_registry,
-    default_registry,
 )
 from marknav.missions.schema import load_mission
 
@@ -233,7 +233,7 @@ def test_custom_tree_builds_the_right_structure(tmp_path: Path) -> None:
     # py_trees' own node types only (marknav's registry would ask for the route's Waypoints)
     mission = load_mission(write(tmp_path, CUSTOM), builtin_registry())
     assert mission.tree is not None
-    root = build_tree(mission.tree, context=BuildContext(mission=mission))
+    root = build_tree(mission.tree, mission.registry, BuildContext(mission=mission))
 
     assert type(root) is py_trees.composites.Selector
     assert (root.name, root.memory) == ("Root", False)
@@ -272,7 +272,7 @@ def test_parallel_default_policy_and_memoryless_sequence() -> None:
         "type": "Parallel", "policy": "success_on_all",
         "children": [{"type": "Sequence", "memory": False, "children": [{"type": "Success"}]}],
     })
-    root = build_tree(spec)
+    root = build_tree(spec, default_registry())
     assert isinstance(root, py_trees.composites.Parallel)
     assert type(root.policy) is ParallelPolicy.SuccessOnAll
     sequence = root.children[0]
@@ -285,7 +285,7 @@ def test_pause_runs_on_the_mission_clock() -> None:
         "type": "Sequence", "memory": True,
         "children": [{"type": "Pause", "params": {"seconds": 1.5}}, {"type": "Success"}],
     })
-    tree = py_trees.trees.BehaviourTree(build_tree(spec))
+    tree = py_trees.trees.BehaviourTree(build_tree(spec, default_registry()))
     tree.setup(clock=clock)
     tree.tick()
     assert tree.root.status is Status.RUNNING
@@ -302,7 +302,7 @@ def test_timeout_fails_its_running_child_on_the_mission_clock() -> None:
     clock = ManualClock()
     spec = TreeNode.model_validate(
         {"type": "Timeout", "params": {"duration": 2}, "child": {"type": "Running"}})
-    tree = py_trees.trees.BehaviourTree(build_tree(spec))
+    tree = py_trees.trees.BehaviourTree(build_tree(spec, default_registry()))
     tree.setup(clock=clock)
     tree.tick()
     clock.advance(1.999)
@@ -327,7 +327,7 @@ def test_timers_without_a_clock_say_so() -> None:
     with pytest.raises(RuntimeError, match=r"Pause 'Wait' has no clock: set up the tree with "
                        r"tree.setup\(clock=...\)"):
         pause.tick_once()
-    with pytest.raises(TypeError, match=r"needs a marknav\.clock\.Clock"):
+    with pytest.raises(TypeError, match=r"needs a marknav\.core\.clock\.Clock"):
         pause.setup(clock="now")
     with pytest.raises(ValueError, match="Timeout duration must be a finite number of seconds > 0"):
         Timeout("T", py_trees.behaviours.Success("S"), 0.0)
@@ -445,8 +445,8 @@ def test_behaviour_modules_register_into_the_default_registry(
 
     module.register = register  # type: ignore[attr-defined]
     monkeypatch.setitem(sys.modules, "fake_marknav_behaviours", module)
-    monkeypatch.setattr(registry_module, "BEHAVIOUR_MODULES", ("fake_marknav_behaviours",))
-    monkeypatch.setattr(registry_module, "_default", None)
+    monkeypatch.setattr(catalogue, "nodes", module)
+    monkeypatch.setattr(plugins_module, "_default", None)
     reg = default_registry()
     assert "Wave" in reg and "Sequence" in reg
     assert default_registry() is reg

@@ -10,7 +10,7 @@ from pathlib import Path
 import pydot
 import pytest
 
-from marknav.cli import main
+from marknav.cli.main import main
 
 MISSIONS = Path(__file__).resolve().parents[2] / "missions"
 

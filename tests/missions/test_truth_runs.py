@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from marknav.cli import main
+from marknav.cli.main import main
 from marknav.missions.schema import load_mission
 from marknav.runs.evaluate import SeedResult, WaypointTruth, summarise
 from marknav.runs.report import RunReport, WaypointResult

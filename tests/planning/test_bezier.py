@@ -141,6 +141,7 @@ def test_length_matches_dense_polyline(p0: tuple[float, float], p1: tuple[float,
 @settings(deadline=None)  # no time limit per example: the machine may be loaded
 @given(point, point, point, st.floats(1.0, 200.0))
 @example((0.0, 0.0), (0.0, 1.0), (0.0, -1.19e-7), 1.0)  # found by Hypothesis in a full run
+@example((-0.4, 1.1), (-0.4, -0.4), (-0.4, -1.9), 1.25)  # P1 mid-chord: B is rounding error
 def test_sample_spacing(p0: tuple[float, float], p1: tuple[float, float],
                         p2: tuple[float, float], step: float) -> None:
     curve = QuadraticBezier(p0, p1, p2)

@@ -7,14 +7,14 @@ import random
 
 import pytest
 
-from marknav.drivers.odometry import Odometry
-from marknav.drivers.packets import Model
 from marknav.planning.kinematics import Pose, integrate_pose, to_robot_frame, to_world_frame
 from marknav.planning.wheel_ratio import (
     WheelRatioCalibrator,
     fit_wheel_ratio,
     mark_sensitivity,
 )
+from marknav.robot.odometry import Odometry
+from marknav.robot.packets import Model
 
 BASE = 235.0
 

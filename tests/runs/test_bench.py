@@ -102,7 +102,7 @@ def test_bench_all_prints_one_json_object_with_machine_once(
         capsys: pytest.CaptureFixture[str]) -> None:
     import json
 
-    from marknav.cli import main
+    from marknav.cli.main import main
 
     assert main(["bench", "all", "--quick", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
@@ -122,7 +122,7 @@ def test_bench_all_prints_one_json_object_with_machine_once(
 
 
 def test_bench_one_section_as_text(capsys: pytest.CaptureFixture[str]) -> None:
-    from marknav.cli import main
+    from marknav.cli.main import main
 
     assert main(["bench", "safety", "--quick"]) == 0
     lines = capsys.readouterr().out.splitlines()
@@ -132,7 +132,7 @@ def test_bench_one_section_as_text(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_bench_unknown_section_is_a_usage_error() -> None:
-    from marknav.cli import main
+    from marknav.cli.main import main
 
     with pytest.raises(SystemExit) as exc:
         main(["bench", "nope"])
@@ -142,7 +142,7 @@ def test_bench_unknown_section_is_a_usage_error() -> None:
 def test_bench_profile_prints_the_top_costs(capsys: pytest.CaptureFixture[str]) -> None:
     import json
 
-    from marknav.cli import main
+    from marknav.cli.main import main
 
     assert main(["bench", "safety", "--quick", "--json", "--profile", "4"]) == 0
     captured = capsys.readouterr()

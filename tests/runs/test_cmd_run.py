@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from marknav.cli import main
+from marknav.cli.main import main
 
 ROOT = Path(__file__).resolve().parents[2]
 SLALOM = ROOT / "missions" / "slalom.yaml"

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from marknav.cli import main
+from marknav.cli.main import main
 from marknav.runs import evaluate as ev_mod
 from marknav.runs.evaluate import (
     SeedResult,

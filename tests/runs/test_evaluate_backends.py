@@ -17,7 +17,7 @@ from typing import Any
 import pytest
 import yaml
 
-from marknav.cli import main
+from marknav.cli.main import main
 from marknav.runs.evaluate import SeedResult, evaluate
 from marknav.testing import BASE_MISSION
 
@@ -194,7 +194,7 @@ def test_pool_workers_die_with_a_killed_parent(tiny: Path) -> None:
 
 
 def test_help_and_progress_text(capsys: pytest.CaptureFixture[str]) -> None:
-    from marknav.runs.cmd_evaluate import ProgressBar
+    from marknav.cli.evaluate import ProgressBar
 
     with pytest.raises(SystemExit):
         main(["evaluate", "--help"])

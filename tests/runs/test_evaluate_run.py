@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from marknav.cli import main
+from marknav.cli.main import main
 from marknav.testing import BASE_MISSION
 
 #: One waypoint, a 320×240 camera (quick to render), a pinhole range law matching it.

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from marknav.cli import main
+from marknav.cli.main import main
 from marknav.runs.evaluate import replay_command
 
 SLALOM = Path(__file__).resolve().parents[2] / "missions" / "slalom.yaml"

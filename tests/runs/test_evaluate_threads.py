@@ -8,10 +8,12 @@ from pathlib import Path
 from typing import Any
 
 import cv2
+import py_trees
 import pytest
 import yaml
 
 from marknav.runs import run as runmod
+from marknav.runs.evaluate import run_seed
 from marknav.runs.evaluate_backends import one_opencv_thread, run_jobs
 from marknav.testing import BASE_MISSION
 
@@ -39,7 +41,8 @@ def test_an_evaluation_job_runs_on_one_opencv_thread_then_restores_it(
     before = cv2.getNumThreads()
     cv2.setNumThreads(3)
     try:
-        results, workers = run_jobs([(str(mission), 1), (str(mission), 2)], max_time_s=0.2)
+        results, workers = run_jobs(run_seed, [(str(mission), 1), (str(mission), 2)],
+                                    max_time_s=0.2)
         assert workers == 1 and [r.seed for r in results] == [1, 2]
         assert all(r.outcome == "failed" for r in results)  # the 0.2 s time limit
         assert seen == [1, 1]
@@ -64,17 +67,16 @@ def test_a_simulated_run_ticks_on_one_opencv_thread_then_restores_it(
         monkeypatch: pytest.MonkeyPatch) -> None:
     """``marknav run`` on the simulator (lock-step, small arrays) keeps OpenCV to one thread
     while the tree ticks, and gives the previous setting back when the run ends."""
-    from marknav.runs import runner
     from marknav.testing import make_mission
 
     seen: list[int] = []
-    original = runner.MissionTree.tick
+    original = py_trees.trees.BehaviourTree.tick
 
     def watching(self: Any) -> Any:
         seen.append(cv2.getNumThreads())
         return original(self)
 
-    monkeypatch.setattr(runner.MissionTree, "tick", watching)
+    monkeypatch.setattr(py_trees.trees.BehaviourTree, "tick", watching)
     before = cv2.getNumThreads()
     cv2.setNumThreads(3)
     try:

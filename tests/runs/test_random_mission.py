@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from marknav.cli import main
+from marknav.cli.main import main
 from marknav.planning.kinematics import Pose
 from marknav.runs.random_mission import PALETTE, random_mission
 from marknav.sim import scenery

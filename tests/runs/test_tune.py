@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from marknav.cli import main
+from marknav.cli.main import main
 from marknav.runs.tune import parse_param
 from marknav.testing import BASE_MISSION
 

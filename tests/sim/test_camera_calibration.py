@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from marknav.cli import main
+from marknav.cli.main import main
 from marknav.sim.calibration import TABLE1_DISTANCES_MM, sim_calibration_fit, sim_calibration_table
 from marknav.sim.camera import CameraConfig
 from marknav.sim.world import Conditions

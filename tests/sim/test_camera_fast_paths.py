@@ -15,9 +15,9 @@ import numpy.typing as npt
 import pytest
 
 from marknav.planning.kinematics import Pose
+from marknav.runs.bench_render import example_poses, example_renderer
 from marknav.sim.camera import CameraConfig, Renderer
 from marknav.sim.projection import MarkGeometry, clip_near, inset, rim_projection
-from marknav.sim.render_bench import example_poses, example_renderer
 from marknav.sim.world import Background, Conditions, MarkSpec, World
 from marknav.vision.palette import ColourRange
 
@@ -147,7 +147,7 @@ def test_noisy_frames_with_poles_still_take_the_plain_path() -> None:
 
 
 def reference_inset(poly: FloatArray, by: float) -> FloatArray:
-    """The NumPy inset the renderer used before (session 6)."""
+    """The NumPy inset the renderer used before its compiled pass."""
     n = len(poly)
     nxt, prv = poly[np.roll(np.arange(n), -1)], poly[np.roll(np.arange(n), 1)]
     x, y = poly[:, 0], poly[:, 1]

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from marknav.clock import ManualClock
+from marknav.core.clock import ManualClock
+from marknav.missions.camera import mission_range_model
 from marknav.missions.schema import Camera, PinholeRange, PowerRange, load_mission
 from marknav.planning.kinematics import Pose
 from marknav.sim.calibration import sim_calibration_fit
@@ -22,7 +23,6 @@ from marknav.sim.camera_model import (
 )
 from marknav.sim.world import World
 from marknav.testing.missions import make_mission
-from marknav.vision.camera_setup import mission_range_model
 from marknav.vision.estimate import Pinhole, PowerLaw
 from marknav.vision.palette import DEFAULT_PALETTE
 

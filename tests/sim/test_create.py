@@ -6,11 +6,12 @@ import math
 
 import pytest
 
-from marknav.clock import ManualClock
-from marknav.drivers import oi
-from marknav.drivers.odometry import MM_PER_COUNT
-from marknav.drivers.oi import Model, OIMode, StreamParser
-from marknav.drivers.packets import (
+from marknav.core.clock import ManualClock
+from marknav.planning.kinematics import Pose
+from marknav.robot import oi
+from marknav.robot.odometry import MM_PER_COUNT
+from marknav.robot.oi import Model, OIMode, StreamParser
+from marknav.robot.packets import (
     SensorState,
     decode_id_data_pairs,
     decode_packet,
@@ -18,7 +19,6 @@ from marknav.drivers.packets import (
     packet_size,
     packet_table,
 )
-from marknav.planning.kinematics import Pose
 from marknav.sim.create import LedState, SimulatedCreate
 
 C1, C2 = Model.CREATE1, Model.CREATE2

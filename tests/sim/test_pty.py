@@ -14,12 +14,12 @@ from collections.abc import Callable, Iterator
 import pytest
 import serial
 
-from marknav.clock import MonotonicClock
-from marknav.drivers import oi
-from marknav.drivers.driver import CreateDriver
-from marknav.drivers.oi import Model, OIMode
-from marknav.drivers.packets import SensorState, decode_packet
+from marknav.core.clock import MonotonicClock
 from marknav.planning.kinematics import WheelSpeeds
+from marknav.robot import oi
+from marknav.robot.driver import CreateDriver
+from marknav.robot.oi import Model, OIMode
+from marknav.robot.packets import SensorState, decode_packet
 from marknav.sim.create import LedState, SimulatedCreate
 from marknav.sim.pty import PtyServer
 
@@ -178,7 +178,7 @@ def test_sim_robot_command_serves_until_interrupted(sig: signal.Signals, model: 
 
 
 def test_sim_robot_bad_input_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
-    from marknav.cli import main
+    from marknav.cli.main import main
 
     assert main(["sim-robot", "--pty", "--right-scale", "0"]) == 2
     assert "--right-scale: must be in (0, 2], got 0.0" in capsys.readouterr().err

@@ -17,9 +17,9 @@ from typing import Any
 
 import pytest
 
-from marknav.drivers import oi
-from marknav.drivers.oi import Model
-from marknav.drivers.packets import (
+from marknav.robot import oi
+from marknav.robot.oi import Model
+from marknav.robot.packets import (
     BumpsAndWheelDrops,
     OIMode,
     Overcurrents,

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from marknav.errors import InputErrors
+from marknav.core.errors import InputErrors
 from marknav.sim.truth import course_truth, resample_path, truth_path
 from marknav.sim.world import MarkSpec, World, check_course, load_world
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from marknav.errors import InputError
+from marknav.core.errors import InputError
 from marknav.planning.kinematics import Pose
 from marknav.sim import world as w
 from marknav.sim.camera import CameraConfig, project_marks

@@ -7,7 +7,7 @@ import json
 import pytest
 from pydantic import BaseModel
 
-from marknav.cli import main
+from marknav.cli.main import main
 from marknav.sim import world as worldmod
 
 DESCRIBED = {

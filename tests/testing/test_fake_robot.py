@@ -4,8 +4,8 @@ import math
 
 import pytest
 
-from marknav.drivers.robot import BUMPED, DRIVING, ESTOPPED, FAULT, READY, Robot
 from marknav.planning.kinematics import Pose, integrate_pose
+from marknav.robot.robot import BUMPED, DRIVING, ESTOPPED, FAULT, READY, Robot
 from marknav.testing import FakeRobot, WheelCommand
 
 

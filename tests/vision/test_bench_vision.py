@@ -9,8 +9,8 @@ import cv2
 import numpy as np
 import pytest
 
-from marknav.cli import main
-from marknav.vision.bench import BENCH_SPEC, bench_frames, match_marks, run_vision_bench
+from marknav.cli.main import main
+from marknav.runs.bench_vision import BENCH_SPEC, bench_frames, match_marks, run_vision_bench
 from marknav.vision.detect import Detector, Mark
 
 KEYS = {"frames", "repeats", "width", "height", "detector_ms_p50", "detector_ms_p99",

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from marknav.cli import main
+from marknav.cli.main import main
 from marknav.vision.calibrate import fit_power_law, fit_table
 
 DATA = Path(__file__).resolve().parents[1] / "data"

@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 import pytest
 
-from marknav.cli import main
+from marknav.cli.main import main
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 SMARTIES = DATA / "smarties.png"

@@ -15,15 +15,15 @@ import pytest
 
 from marknav.behaviours import keys
 from marknav.behaviours.perception import Perception
-from marknav.cli import main
-from marknav.missions.schema import Mission, load_mission
-from marknav.testing import FakeRobot
-from marknav.vision.detector_setup import (
+from marknav.cli.main import main
+from marknav.missions.detector import (
     HORIZON_SLACK_PX,
     ROBOT_FLOOR_PX,
     CameraDetector,
     mission_detector,
 )
+from marknav.missions.schema import Mission, load_mission
+from marknav.testing import FakeRobot
 from marknav.vision.sources import Frame
 
 MISSION = """\

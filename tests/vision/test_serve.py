@@ -21,10 +21,9 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from marknav import cli
-from marknav.vision import cmd_serve_camera
-from marknav.vision.detect import detect_marks
-from marknav.vision.serve import (
+from marknav.cli import main as cli
+from marknav.cli import serve_camera as cmd_serve_camera
+from marknav.remote.mjpeg_server import (
     BOUNDARY,
     CameraStreamer,
     MjpegServer,
@@ -32,6 +31,7 @@ from marknav.vision.serve import (
     is_live_spec,
     is_loopback_host,
 )
+from marknav.vision.detect import detect_marks
 from marknav.vision.sources import Frame, FrameSource, open_source
 
 SMARTIES = Path(__file__).resolve().parents[1] / "data" / "smarties.png"
@@ -281,7 +281,7 @@ def test_two_clients_at_once_and_a_stuck_one_slows_nobody() -> None:
 
 def test_a_client_that_disconnects_mid_frame_does_not_break_the_server(
         still_server: MjpegServer, caplog: pytest.LogCaptureFixture) -> None:
-    caplog.set_level(logging.INFO, logger="marknav.vision.serve")
+    caplog.set_level(logging.INFO, logger="marknav.remote.mjpeg_server")
     for _ in range(3):
         reader = MjpegReader(still_server.port)
         reader.file.readline()  # the first boundary, then hang up with a reset (SO_LINGER 0)
@@ -302,7 +302,7 @@ def test_a_client_that_disconnects_mid_frame_does_not_break_the_server(
 
 def test_a_stalled_camera_ends_streams_cleanly_and_recovers(
         caplog: pytest.LogCaptureFixture) -> None:
-    caplog.set_level(logging.INFO, logger="marknav.vision.serve")
+    caplog.set_level(logging.INFO, logger="marknav.remote.mjpeg_server")
     opened: list[FakeCamera] = []
 
     def open_camera() -> FrameSource:

@@ -10,8 +10,8 @@ import cv2
 import numpy as np
 import pytest
 
-from marknav.clock import ManualClock
-from marknav.errors import InputError
+from marknav.core.clock import ManualClock
+from marknav.core.errors import InputError
 from marknav.vision.sources import (
     FrameSource,
     ImageFolderSource,

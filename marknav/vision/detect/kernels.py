@@ -48,7 +48,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from marknav.compiled import compiled as _compiled
+from marknav.core.compiled import compiled as _compiled
 
 __all__ = ["block_means", "circle_fit", "coarse_seeds", "ellipse_rms", "grey_sums",
            "quadrants_differ", "radius_range", "saturation_rank", "search_box", "true_runs",

@@ -1,0 +1,173 @@
+"""``marknav run``: drive a mission — in the simulator by default, on a real Create by choice."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from marknav.cli.validate import SET_HELP
+from marknav.core.errors import InputError, MissionFailed
+
+
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser(
+        "run",
+        help="run a mission (simulator by default)",
+        description=(
+            "Run MISSION's behaviour tree at control.rate_hz. With no --robot/--camera the "
+            "built-in simulator is the robot and the camera. On a terminal the tree and a status "
+            "panel are redrawn in place every tick; piped, the tree is printed whenever a status "
+            "changes. The run report and the complete run log (JSON Lines: every tick's status "
+            "changes, poses, detections, wheel commands, safety events; 'marknav replay' reads "
+            "it) are written as the run goes, also when it fails or is interrupted (default "
+            "folder: runs/NAME-TIME/). --viewer/--record need the 'viewer' extra (Rerun); "
+            "marknav turns Rerun's anonymous usage analytics off (RERUN_ANALYTICS=0)."
+        ),
+    )
+    p.add_argument("mission", metavar="MISSION", help="mission YAML file")
+    p.add_argument("--world", metavar="WORLD|generate|random",
+                   help="simulator world file (default: the mission's sim.world, else one "
+                        "generated from the route and --seed); 'generate' forces a generated "
+                        "world, 'random' one with randomised light, noise, wheels and mark yaw "
+                        "(what 'marknav evaluate' runs, so its failures replay exactly)")
+    p.add_argument("--robot", default="sim", metavar="sim|PORT|URL",
+                   help="'sim', a serial device (/dev/ttyUSB0) or a pyserial URL "
+                        "(socket://host:port, rfc2217://host:port)")
+    p.add_argument("--camera", default="sim", metavar="sim|INDEX|PATH|URL",
+                   help="'sim', a camera index, a video file, an image folder or an http:// "
+                        "MJPEG stream")
+    p.add_argument("--tree", default="auto", choices=("auto", "ascii", "unicode", "none"),
+                   help="how to draw the tree (default auto: unicode where the terminal "
+                        "can show it)")
+    p.add_argument("--report", metavar="FILE.json", type=Path, help="run report path")
+    p.add_argument("--events", metavar="FILE.jsonl", type=Path,
+                   help="event log path (default: beside the report)")
+    p.add_argument("--plot", metavar="FILE.png", type=Path,
+                   help="top-down picture of the run (simulator only)")
+    p.add_argument("--frames", type=float, metavar="HZ",
+                   help="also save camera frames as JPEG files beside the run log, at most HZ "
+                        "per second (e.g. 2), so a real-robot run can be looked at afterwards; "
+                        "with --viewer/--record, also the camera image rate there (default "
+                        "5 per second of run time, JPEG-compressed)")
+    p.add_argument("--viewer", action="store_true",
+                   help="stream the run live to the Rerun viewer: camera with detections, "
+                        "top-down map, range and wheel plots, tree status (extra: viewer)")
+    p.add_argument("--record", metavar="FILE.rrd", type=Path,
+                   help="save a Rerun recording of the run without opening a viewer "
+                        "('marknav view FILE.rrd' opens it; extra: viewer)")
+    p.add_argument("--seed", type=int, help="simulator seed (default: the mission's sim.seed)")
+    p.add_argument("--realtime", action="store_true",
+                   help="pace the simulator at wall-clock speed")
+    p.add_argument("--max-time", type=float, metavar="SECONDS",
+                   help="give up after this much mission time (default 60 s + 40 s per "
+                        "waypoint)")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", dest="overrides",
+                   help=SET_HELP + "; recorded in the report")
+    p.set_defaults(func=run)
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """Every output path the user gave is writable, before anything starts (exit 2)."""
+    from marknav.core.outputs import check_output_file
+
+    for option, path in (("--report", args.report), ("--events", args.events),
+                         ("--plot", args.plot)):
+        if path is not None:
+            check_output_file(path, option=option)
+    if args.plot is not None and args.robot != "sim":
+        raise InputError("--plot draws the simulator's ground truth; it needs --robot sim",
+                         field="--plot")
+
+
+def run(args: argparse.Namespace) -> int:
+    from marknav.core.outputs import printable
+    from marknav.missions.overrides import parse_overrides
+    from marknav.runs.checks import checked_mission
+    from marknav.runs.report import reached
+    from marknav.runs.run import RunRequest, default_run_dir, execute, summary
+
+    if args.max_time is not None and not args.max_time > 0:
+        raise InputError(f"must be positive, got {args.max_time}", field="--max-time")
+    if args.seed is not None and args.seed < 0:
+        raise InputError(f"must be ≥ 0, got {args.seed}", field="--seed")
+    if args.frames is not None and not args.frames > 0:
+        raise InputError(f"must be positive, got {args.frames}", field="--frames")
+    if args.viewer or args.record is not None:
+        from marknav.runs.viewer import require_display, require_rerun
+
+        require_rerun("--viewer" if args.viewer else "--record")
+        if args.viewer:
+            require_display("--viewer")
+    check_outputs(args)
+    overrides = parse_overrides(args.overrides)
+    world = None if args.world in (None, "generate", "random") else args.world
+    # Everything 'marknav validate' checks, before anything starts; then only the hardware.
+    mission = checked_mission(args.mission, overrides, world=world)
+    report_path: Path = args.report or default_run_dir(mission) / "report.json"
+    events_path: Path = args.events or report_path.with_name(report_path.stem + ".events.jsonl")
+    if args.events is None:
+        from marknav.core.outputs import check_output_file
+
+        check_output_file(events_path, option="--events")
+    generated = args.world in ("generate", "random")
+    req = RunRequest(
+        mission=mission, world=None if generated else args.world, robot=args.robot,
+        camera=args.camera, generate_world=generated, randomise=args.world == "random",
+        tree_style=args.tree, out=sys.stdout, report_path=report_path,
+        events_path=events_path, plot_path=args.plot, seed=args.seed,
+        realtime=args.realtime, max_time_s=args.max_time, frames_hz=args.frames,
+        viewer=args.viewer, record_path=args.record,
+    )
+
+    def written() -> str:
+        names = {report_path: "report", events_path: "events", args.plot: "plot"}
+        order = [report_path, events_path, args.plot]
+        shown = sorted(req.written, key=lambda p: order.index(p) if p in order else 9)
+        return "  ".join(f"{names[p]}: {printable(str(p))}" for p in shown)
+
+    def write_errors() -> None:
+        for error in req.write_errors:
+            print(f"marknav run: error: {printable(error)}", file=sys.stderr)
+
+    try:
+        result = execute(req)
+    except KeyboardInterrupt:
+        write_errors()
+        print(f"marknav run: interrupted; wheels stopped; {written() or 'nothing written'}",
+              file=sys.stderr)
+        raise
+    except InputError:
+        write_errors()
+        if req.written:
+            print(f"marknav run: did not start; {written()}", file=sys.stderr)
+        raise
+    report = result.report
+    print(summary(report))
+    got_to = reached(report.waypoints)
+    for i, wp in enumerate(report.waypoints, start=1):
+        truth = ""
+        if wp.truth is not None and wp.mark is not None:
+            side = f"passed on its {wp.passed_on}" if wp.passed_on else "not passed"
+            ok = ("ok" if wp.truth == "passed" else "not reached" if i > got_to
+                  else wp.truth.replace("_", " ").upper())
+            closest = (f", closest {wp.min_clearance_mm:.0f} mm"
+                       if wp.min_clearance_mm is not None else "")
+            truth = (f"; ground truth (mark {wp.mark['index']} at {wp.mark['x_mm']:g}, "
+                     f"{wp.mark['y_mm']:g}): {side} ({ok}){closest}")
+        print(f"  {i}. {wp.colour} (pass on its {wp.side}): {wp.outcome}{truth}")
+    law = report.range_law
+    if law is not None and law.get("steps"):
+        print(f"range law learnt from {law['steps']} fits (started from {law['source']}); "
+              f"paste under camera: in the mission:\n  {law['yaml']}")
+    if req.written:
+        line = written()
+        if args.record is not None and args.record.exists():
+            line += f"  recording: {printable(str(args.record))}"
+        print(line)
+    if req.write_errors:
+        write_errors()
+        return 2
+    if report.outcome != "success":
+        raise MissionFailed(f"{report.outcome}: {report.reason}")
+    return 0

@@ -1,0 +1,182 @@
+"""One validator: every check ``run`` and ``tree`` make before they start, in one place.
+
+``marknav validate``, ``marknav tree`` and ``marknav run`` all go through :func:`check_mission`,
+so whatever ``run`` or ``tree`` would refuse, ``validate`` refuses first, with the same message
+and place. ``run`` adds only what needs the hardware (opening the port and the camera).
+
+In order, and all reported together where one does not depend on another:
+
+1. the file: YAML, the mission schema (every key, range and cross-field rule), ``--set``
+   settings, ``plugins`` (:func:`marknav.missions.schema.load_mission`), resource limits (the
+   camera's pixel budget), and a custom ``tree:`` against the palette and the route
+   (:mod:`marknav.missions.tree_checks`, which also derives Waypoint indices);
+2. building the tree (each node type's factory with its params: a plugin's own checks);
+3. the simulator world, when the mission names one (``sim.world``) or ``run --world FILE`` does:
+   its own format, its colours against the mission's palette, a mark of each route colour, and
+   the mission's ``marks.radius_mm`` not making its marks overlap.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from pydantic import ValidationError
+
+from marknav.core.errors import InputError, InputErrors
+from marknav.core.yamlio import load_yaml_file
+from marknav.missions.overrides import Override, apply_overrides, relabel
+from marknav.missions.schema import Marks, Mission, Sim, load_mission
+from marknav.sim import world as worldmod
+from marknav.vision.palette import ColourRange
+
+__all__ = ["check_mission", "check_world", "checked_mission"]
+
+
+def check_mission(
+    path: str | Path,
+    overrides: Sequence[Override] = (),
+    *,
+    world: str | Path | None = None,
+) -> tuple[Mission | None, list[InputError]]:
+    """The mission (``None`` if its file does not load) and every problem found. ``world``
+    replaces the mission's ``sim.world`` (``run --world FILE``)."""
+    try:
+        mission = load_mission(path, overrides=overrides)
+    except InputErrors as exc:
+        return None, _merge(exc.errors, _world_of_invalid_mission(path, overrides, world))
+    except InputError as exc:
+        return None, [exc]
+    errors = check_build(mission)
+    errors.extend(check_world(mission, world))
+    return mission, relabel(errors, overrides)
+
+
+def _merge(first: Sequence[InputError], more: Sequence[InputError]) -> list[InputError]:
+    seen = {str(e) for e in first}
+    return [*first, *(e for e in more if str(e) not in seen)]
+
+
+def checked_mission(
+    path: str | Path,
+    overrides: Sequence[Override] = (),
+    *,
+    world: str | Path | None = None,
+) -> Mission:
+    """The mission if :func:`check_mission` finds nothing; else :class:`InputErrors` with all."""
+    mission, errors = check_mission(path, overrides, world=world)
+    if errors:
+        raise InputErrors(errors)
+    assert mission is not None
+    return mission
+
+
+def check_build(mission: Mission) -> list[InputError]:
+    """Problems building the mission's tree (none for the default route tree)."""
+    if mission.tree is None:
+        return []
+    from marknav.behaviours.tree import build_mission_tree
+
+    try:
+        build_mission_tree(mission)
+    except InputErrors as exc:
+        return list(exc.errors)
+    except InputError as exc:
+        return [exc]
+    return []
+
+
+Locate = Callable[[tuple[str | int, ...], str], InputError]
+
+
+def check_world(mission: Mission, world: str | Path | None = None) -> list[InputError]:
+    """Problems of the simulator world the mission would run in (``world``, else its
+    ``sim.world``); none when the world is generated."""
+    if world is not None:
+        return _world_problems(mission.marks, mission.route, Path(world), (),
+                               mission.input_error)
+    if mission.sim is not None and mission.sim.world is not None:
+        return _world_problems(mission.marks, mission.route, mission.sim.world, ("sim", "world"),
+                               mission.input_error)
+    return []
+
+
+def _world_of_invalid_mission(
+    path: str | Path, overrides: Sequence[Override], world: str | Path | None
+) -> list[InputError]:
+    """The world checks of a mission with errors elsewhere, when the parts they need (marks,
+    route, sim.world) are valid on their own: so one round reports the world's problems too."""
+    try:
+        doc = apply_overrides(load_yaml_file(path), overrides)
+    except InputError:
+        return []
+    data = doc.data if isinstance(doc.data, dict) else {}
+    try:
+        marks = Marks.model_validate(data.get("marks"))
+        sim = Sim.model_validate(data.get("sim") or {})
+    except ValidationError:
+        return []
+    route = data.get("route")
+    if not (isinstance(route, list) and route
+            and all(isinstance(c, str) and c in marks.colours for c in route)):
+        return []
+
+    def locate(loc: tuple[str | int, ...], message: str) -> InputError:
+        pos = doc.position(loc)
+        field = ""
+        for part in loc:
+            field += f"[{part}]" if isinstance(part, int) else ("." if field else "") + part
+        return InputError(message, file=doc.path, line=pos.line if pos else None,
+                          column=pos.column if pos else None, field=field)
+
+    if world is not None:
+        return _world_problems(marks, route, Path(world), (), locate)
+    if sim.world is None:
+        return []
+    return _world_problems(marks, route, Path(doc.path).parent / sim.world, ("sim", "world"),
+                           locate)
+
+
+def _world_problems(
+    marks: Marks, route: Sequence[str], world_path: Path, where: tuple[str, ...], locate: Locate
+) -> list[InputError]:
+    if not world_path.exists():  # anything else that is not a world file: the loader says what
+        if where:
+            return [locate(where, f"no such world file: {world_path}")]
+        return [InputError("no such file", file=str(world_path))]
+    palette = [ColourRange(name, spec.hue[0], spec.hue[1]) for name, spec in marks.colours.items()]
+    errors: list[InputError] = []
+    try:
+        loaded = worldmod.load_world(world_path)
+    except InputErrors as exc:
+        return list(exc.errors)
+    except InputError as exc:
+        return [exc]
+    try:
+        worldmod.check_against_palette(loaded, palette, str(world_path))
+    except InputErrors as exc:
+        errors.extend(exc.errors)
+    except InputError as exc:
+        errors.append(exc)
+    present = {mark.colour for mark in loaded.marks}
+    reported: set[str] = set()
+    for i, colour in enumerate(route):
+        if colour not in present and colour not in reported:
+            reported.add(colour)
+            errors.append(locate(("route", i), f"no {colour} mark in the world {world_path}"))
+    if not errors:  # the world's course: one mark per waypoint, of the waypoint's colour
+        try:
+            worldmod.check_course(loaded, route, str(world_path))
+        except InputErrors as exc:
+            errors.extend(exc.errors)
+        except InputError as exc:
+            errors.append(exc)
+    try:
+        loaded.with_mark_radius(marks.radius_mm)
+    except ValidationError as exc:
+        detail = exc.errors(include_url=False)[0]["msg"].removeprefix("Value error, ")
+        errors.append(locate(
+            ("marks", "radius_mm"),
+            f"with marks {marks.radius_mm:g} mm in radius, the marks of the world "
+            f"{world_path} overlap: {detail}"))
+    return errors
