@@ -26,7 +26,6 @@ appended to ``/marknav/plans`` for the run plot. The wheels are stopped when the
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 from typing import Any, ClassVar
 
 import numpy as np
@@ -36,6 +35,7 @@ from marknav.behaviours import keys
 from marknav.behaviours.approach import THRESHOLD_SPEED_FRACTION
 from marknav.behaviours.base import DrivingBehaviour, SetupError, check_positive, pick
 from marknav.behaviours.keys import cut_by_image_side
+from marknav.behaviours.track import lock
 from marknav.planning.bezier import BypassPlan, PlanningError, plan_bypass
 from marknav.planning.kinematics import Pose
 from marknav.planning.tracking import PurePursuit
@@ -172,7 +172,7 @@ class BezierBypass(DrivingBehaviour):
             else:
                 self._error = f"cannot bypass {target.label}: {exc}"
             return
-        self.write(keys.TARGET, replace(target, locked=True))
+        self.write(keys.TARGET, lock(target))  # the track: FOLLOWING/REMEMBERED -> LOCKED
         self._adopt(plan, "resumed" if target.locked else "initial")
 
     def update(self) -> Status:

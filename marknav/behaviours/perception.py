@@ -2,8 +2,9 @@
 
 Each tick :class:`Perception` reads the latest frame from the camera (``FrameSource.read()``),
 finds the marks (:class:`marknav.vision.detect.Detector`), estimates each one's position in the
-robot frame (:func:`marknav.vision.estimate.estimate`: range by eq. 19 or eq. 2, lateral offset by
-eq. 21; camera assumed at the robot's centre, looking along its heading) and places it in the world
+robot frame (:func:`marknav.vision.estimate.estimate_disc`: a disc standing at camera height,
+range by eq. 19 or eq. 2 from the ellipse's vertical semi-axis, bearing from its horizontal ends;
+camera assumed at the robot's centre, looking along its heading) and places it in the world
 frame with the robot's odometry pose. It writes ``/marknav/frame``, ``/marknav/marks``,
 ``/marknav/last_seen`` and refreshes the target's sighting (:func:`~marknav.behaviours.target.
 associate`), so every later node of the tick sees one consistent picture.
@@ -59,7 +60,7 @@ from marknav.missions.camera import (
 from marknav.planning.kinematics import Pose, to_world_frame
 from marknav.planning.wheel_ratio import WheelRatioCalibrator, WheelRatioStep
 from marknav.robot.robot import BUMPED, WheelCalibratable
-from marknav.vision.estimate import RangeModel, estimate
+from marknav.vision.estimate import RangeModel, estimate_disc, upright_extents
 from marknav.vision.range_learning import MIN_RADIUS_FRACTION, RangeLawLearner, RangeLawStep
 from marknav.vision.sources import Frame, FrameSource
 from marknav.vision.undistort import Intrinsics, undistort_mark
@@ -289,10 +290,9 @@ class Perception(PerceptionBase):
                         prior=prior, min_radius_px=MIN_RADIUS_FRACTION * mission.camera.width)
                     self._range_model = prior
             if self._detector is None:
-                from marknav.missions.detector import CameraDetector
+                from marknav.missions.detector import mission_detector
 
-                self._detector = CameraDetector.for_mission(
-                    mission, None if self._intrinsics is None else self._intrinsics.cy)
+                self._detector = mission_detector(mission, self._camera)
             calibrate = mission.robot.calibrate_wheels
             if calibrate and self._calibrator is None:
                 self._calibrator = WheelRatioCalibrator()
@@ -325,7 +325,8 @@ class Perception(PerceptionBase):
         else:
             pose, sensitivity = robot.pose(), None
         cx = intr.cx if intr is not None else keys.image_centre(width)
-        marks = tuple(self._to_seen(m, width, t, pose, cx) for m in found)
+        focal = self._focal_px(intr, width)
+        marks = tuple(self._to_seen(m, width, t, pose, cx, focal) for m in found)
         if calibrated is not None and sensitivity is not None:
             self._calibrate(calibrated, pose, sensitivity, marks)
         if self.range_learner is not None:
@@ -389,7 +390,9 @@ class Perception(PerceptionBase):
             r = m.radius
             if m.x - r < 2 or m.y - r < 2 or m.x + r > width - 3 or m.y + r > height - 3:
                 continue  # cut by the image edge: its radius is not the mark's
-            learner.add(m.colour, (pose.x, pose.y, pose.theta), r, seen.left_mm)
+            # the law maps the vertical semi-axis to range (estimate_disc)
+            upright = upright_extents(m.axes, m.angle_deg)[1]
+            learner.add(m.colour, (pose.x, pose.y, pose.theta), upright, seen.left_mm)
         step = learner.update()
         if step is None:
             return
@@ -427,12 +430,23 @@ class Perception(PerceptionBase):
                 "source": self.range_source, "at": [at(t) for t in times],
                 "yaml": f"range: {{model: power, a: {law.a:.6g}, b: {law.b:.6g}}}"}
 
+    def _focal_px(self, intr: Intrinsics | None, width: int) -> float | None:
+        """The focal length at this frame's width: the intrinsics' fx, else the mission's
+        ``camera.focal_px`` scaled to the frame."""
+        if intr is not None:
+            return intr.fx
+        mission = self.mission
+        if mission is None:
+            return None
+        return mission.camera.focal_px * width / mission.camera.width
+
     def _to_seen(self, mark: Mark, width: int, t: float, pose: Pose,
-                 cx: float | None = None) -> keys.SeenMark:
+                 cx: float | None = None, focal_px: float | None = None) -> keys.SeenMark:
         assert self._range_model is not None and self._mark_radius_mm is not None
-        est = estimate(x_px=mark.x, radius_px=mark.radius, minor_px=mark.axes[1],
-                       cx=keys.image_centre(width) if cx is None else cx,
-                       model=self._range_model, mark_radius_mm=self._mark_radius_mm)
+        est = estimate_disc(x_px=mark.x, axes=mark.axes, angle_deg=mark.angle_deg,
+                            cx=keys.image_centre(width) if cx is None else cx,
+                            model=self._range_model, mark_radius_mm=self._mark_radius_mm,
+                            focal_px=focal_px)
         # x_px is kept relative to the principal point, as if it were the image centre (what
         # SeenMark.pixel_error, the approach's steering, measures from).
         x_px = mark.x if cx is None else mark.x - cx + keys.image_centre(width)

@@ -15,8 +15,11 @@ route colour's nearest visible mark, with two refinements:
   (*remembered*: followed by world position until seen again, so the search turns toward it),
   not a farther mark of that colour down the course.
 
-:func:`associate` is the pure rule; Perception applies it every frame to refresh
-``/marknav/target``. The behaviours here: :class:`SelectTarget` (sets the target of a waypoint),
+The target's track is a small state machine (:mod:`marknav.behaviours.track`: UNSEEN,
+FOLLOWING, REMEMBERED, LOCKED, its transitions, and the association gate derived from the range
+estimate's errors). :func:`associate` is the pure rule, one function per state; Perception
+applies it every frame to refresh ``/marknav/target``. The behaviours here: :class:`SelectTarget`
+(sets the target of a waypoint),
 :class:`TargetSeen` (``Seen?``: the target was seen within ``lost_after_s``),
 :class:`TargetLocked` (``Bypassing?``: this waypoint's bypass already started) and
 :class:`WaypointPassed` (``Passed?``: route progress, which survives a recovery interrupting the
@@ -34,13 +37,13 @@ from py_trees.common import Status
 
 from marknav.behaviours import keys
 from marknav.behaviours.base import MarknavBehaviour, SetupError, check_positive, pick
+from marknav.behaviours.track import DEFAULT_GATE, TrackState, state_of
 from marknav.planning.kinematics import Pose
 
 if TYPE_CHECKING:
     from marknav.missions.schema import Mission
 
 __all__ = [
-    "GATE_MIN_MM",
     "MEMORY_RANGE_MM",
     "SelectTarget",
     "TargetLocked",
@@ -56,13 +59,10 @@ __all__ = [
     "remember",
     "remembered_target",
     "reselect",
+    "sighting_gate_mm",
     "waypoint_id_for",
 ]
 
-#: Smallest association gate (mm): two sightings closer than this are the same mark.
-GATE_MIN_MM = 250.0
-#: The gate grows with range, as the range error does (δd ≈ d²·δr / (f·R)).
-GATE_RANGE_FRACTION = 0.2
 #: Marks seen this near are remembered (farther estimates are too coarse to steer by).
 MEMORY_RANGE_MM = 4000.0
 #: A remembered mark is preferred to one in view only when nearer by at least this (mm).
@@ -78,8 +78,15 @@ REMEMBERED_CENTRE_DEG = 8.0
 
 
 def gate_mm(range_mm: float) -> float:
-    """Association gate for a sighting ``range_mm`` away: max(250 mm, 20 % of the range)."""
-    return max(GATE_MIN_MM, GATE_RANGE_FRACTION * range_mm)
+    """Association gate for an estimate ``range_mm`` away whose image radius is not known
+    (a remembered mark): max(250 mm, 20 % of the range) (:class:`~.track.RangeGate`)."""
+    return DEFAULT_GATE.gate_mm(range_mm)
+
+
+def sighting_gate_mm(mark: keys.SeenMark) -> float:
+    """Association gate for a sighting: the range law's error and its radius's
+    (:class:`~.track.RangeGate`)."""
+    return DEFAULT_GATE.gate_mm(mark.range_mm, mark.radius_px)
 
 
 def waypoint_id_for(index: int, colour: str) -> str:
@@ -89,7 +96,7 @@ def waypoint_id_for(index: int, colour: str) -> str:
 
 def is_passed_mark(mark: keys.SeenMark, passed: Iterable[keys.PassedWaypoint]) -> bool:
     """Whether ``mark`` is (within the gate) a mark of its colour that was already passed."""
-    gate = gate_mm(mark.range_mm)
+    gate = sighting_gate_mm(mark)
     return any(
         p.colour == mark.colour
         and math.hypot(mark.world_x - p.mark_x, mark.world_y - p.mark_y) <= gate
@@ -129,7 +136,7 @@ def remember(known: Sequence[keys.KnownMark], marks: Sequence[keys.SeenMark], *,
     for m in marks:
         if m.range_mm > max_range_mm:
             continue
-        gate = gate_mm(m.range_mm)
+        gate = sighting_gate_mm(m)
         best, best_d = -1, math.inf
         for i, k in enumerate(out):
             if k.colour != m.colour:
@@ -173,7 +180,7 @@ def remembered_target(known: Sequence[keys.KnownMark], colour: str,
                 _near_passed(colour, k.world, k.range_mm, passed):
             continue
         if any(m.colour == colour and math.hypot(m.world_x - k.world_x, m.world_y - k.world_y)
-               <= gate_mm(m.range_mm) for m in marks):
+               <= sighting_gate_mm(m) for m in marks):
             continue  # in view: the sighting speaks for it
         d = math.hypot(k.world_x - pose_xy[0], k.world_y - pose_xy[1])
         if d < best_d:
@@ -209,48 +216,77 @@ def associate(
     pose: Pose | None = None,
     known: Sequence[keys.KnownMark] = (),
 ) -> keys.SeenMark | None:
-    """The sighting of ``target`` among ``marks`` (one frame), or ``None`` if it is not there.
-
-    Unlocked: the nearest not-yet-passed mark of the target's colour — unless, with the robot's
-    ``pose`` and the memory (``known``), the target's own mark is remembered out of view and
-    clearly nearer (by :data:`MEMORY_PREFERENCE_MM`) than that one: the target left the view
-    (an approach from far off its axis, a turn) and a mark of its colour farther down the
-    course is no sighting of it (taking it would pass the near mark, unseen, on whichever side
-    the approach to the far one happens to leave it).
-    Locked (bypass started): the mark of that colour nearest to the target's world estimate,
-    if within the gate.
-    Remembered (chosen from the memory, out of view): the same by position, within
-    :data:`REMEMBERED_GATE_FACTOR` gates, passed marks excluded; with the robot's ``pose``,
-    only once the remembered position is within :data:`REMEMBERED_CENTRE_DEG` of the heading:
-    a search turning toward it sees every mark near it before choosing the nearest to it, not
-    the first of its colour to enter the view (which may be the next mark down the course).
-    """
+    """The sighting of ``target`` among ``marks`` (one frame), or ``None`` if it is not there:
+    the rule of the target's track state (:func:`~.track.state_of`)."""
+    state = state_of(target)
     done = tuple(passed)
-    if not (target.locked or target.remembered) or target.world is None:
-        seen = nearest_of_colour(marks, target.colour, done)
-        if seen is None or pose is None or not known or target.world is None or \
-                _near(target.world, (seen.world_x, seen.world_y), gate_mm(seen.range_mm)):
-            return seen
-        own = remembered_target(known, target.colour, done, (pose.x, pose.y), marks)
-        if own is not None and _near(own.world, target.world, gate_mm(own.range_mm)) and \
-                _clearly_nearer(own, seen, pose):
-            return None  # the target's mark is out of view, not the farther one in view
+    if state is TrackState.LOCKED:
+        return associate_locked(marks, target)
+    if state is TrackState.REMEMBERED:
+        return associate_remembered(marks, target, done, pose)
+    return associate_following(marks, target, done, pose, known)
+
+
+def associate_following(
+    marks: Sequence[keys.SeenMark],
+    target: keys.Target,
+    passed: tuple[keys.PassedWaypoint, ...],
+    pose: Pose | None,
+    known: Sequence[keys.KnownMark],
+) -> keys.SeenMark | None:
+    """UNSEEN and FOLLOWING: the nearest not-yet-passed mark of the target's colour — unless,
+    with the robot's ``pose`` and the memory (``known``), the target's own mark is remembered
+    out of view and clearly nearer (by :data:`MEMORY_PREFERENCE_MM`) than that one: the target
+    left the view (an approach from far off its axis, a turn) and a mark of its colour farther
+    down the course is no sighting of it."""
+    seen = nearest_of_colour(marks, target.colour, passed)
+    if seen is None or pose is None or not known or target.world is None or \
+            _near(target.world, (seen.world_x, seen.world_y), sighting_gate_mm(seen)):
         return seen
+    own = remembered_target(known, target.colour, passed, (pose.x, pose.y), marks)
+    if own is not None and _near(own.world, target.world, gate_mm(own.range_mm)) and \
+            _clearly_nearer(own, seen, pose):
+        return None  # the target's mark is out of view, not the farther one in view
+    return seen
+
+
+def associate_remembered(
+    marks: Sequence[keys.SeenMark],
+    target: keys.Target,
+    passed: tuple[keys.PassedWaypoint, ...],
+    pose: Pose | None,
+) -> keys.SeenMark | None:
+    """REMEMBERED (chosen from the memory, out of view): the mark of its colour nearest the
+    remembered position, within :data:`REMEMBERED_GATE_FACTOR` gates (the position was
+    estimated from farther away and odometry has drifted since), passed marks excluded; with
+    the robot's ``pose``, only once that position is within :data:`REMEMBERED_CENTRE_DEG` of
+    the heading: a search turning toward it sees every mark near it before choosing the
+    nearest to it, not the first of its colour to enter the view."""
+    assert target.world is not None
     tx, ty = target.world
-    if target.remembered and not target.locked and pose is not None:
+    if pose is not None:
         off = math.remainder(math.atan2(ty - pose.y, tx - pose.x) - pose.theta, math.tau)
         if abs(off) > math.radians(REMEMBERED_CENTRE_DEG):
             return None
-    # A remembered position was estimated from farther away (up to MEMORY_RANGE_MM) and odometry
-    # has drifted since: a wider gate.
-    widen = REMEMBERED_GATE_FACTOR if target.remembered and not target.locked else 1.0
+    candidates = [m for m in marks if m.colour == target.colour and not is_passed_mark(m, passed)]
+    return _nearest_within(candidates, (tx, ty), REMEMBERED_GATE_FACTOR)
+
+
+def associate_locked(marks: Sequence[keys.SeenMark],
+                     target: keys.Target) -> keys.SeenMark | None:
+    """LOCKED (bypass under way): the mark of the target's colour nearest its world estimate,
+    within the gate; never another mark of the colour that happens to be nearer the robot."""
+    assert target.world is not None
+    return _nearest_within([m for m in marks if m.colour == target.colour], target.world, 1.0)
+
+
+def _nearest_within(marks: Sequence[keys.SeenMark], xy: tuple[float, float],
+                    widen: float) -> keys.SeenMark | None:
     best: keys.SeenMark | None = None
     best_d = math.inf
     for m in marks:
-        if m.colour != target.colour or (widen > 1.0 and is_passed_mark(m, done)):
-            continue
-        d = math.hypot(m.world_x - tx, m.world_y - ty)
-        if d <= widen * gate_mm(m.range_mm) and d < best_d:
+        d = math.hypot(m.world_x - xy[0], m.world_y - xy[1])
+        if d <= widen * sighting_gate_mm(m) and d < best_d:
             best, best_d = m, d
     return best
 

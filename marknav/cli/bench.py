@@ -8,6 +8,9 @@ versions) once at the top level, then a section per benchmark:
   (:func:`marknav.runs.bench_vision.run_vision_bench`), and on the real photographs and composited
   frames of the source tree's ``tests/data`` (:func:`marknav.runs.bench_real.run_real_bench`),
   and its worst case, crowded frames (:func:`marknav.runs.bench_crowded.run_crowded_bench`);
+  and ``cost``: in one run on the same frames (synthetic, real 640-px photographs, simulator
+  frames) the detector, the least OpenCV detector, plain ``HoughCircles`` and one BGR→HSV, p50
+  and p95 (:func:`marknav.runs.bench_cost.run_cost_bench`);
 - ``tree`` — µs per behaviour-tree tick, slalom and a 50-waypoint route, mocked perception
   (:func:`marknav.runs.bench.bench_tree`);
 - ``loop`` — a simulated mission with rendering and detection: cycle times, overruns, speed-up
@@ -59,6 +62,7 @@ class Benchmark:
 
 
 def _vision(quick: bool) -> dict[str, Any]:
+    from marknav.runs.bench_cost import run_cost_bench
     from marknav.runs.bench_crowded import run_crowded_bench
     from marknav.runs.bench_real import default_corpus, run_real_bench
     from marknav.runs.bench_vision import run_vision_bench
@@ -68,6 +72,8 @@ def _vision(quick: bool) -> dict[str, Any]:
     assert isinstance(det, float) and isinstance(hsv, float)
     result["detector_over_hsv_p50"] = round(det / max(hsv, 1e-9), 2)
     result["crowded"] = run_crowded_bench(1 if quick else 3)
+    result["cost"] = (run_cost_bench(synthetic=4, sim=4, repeats=1) if quick
+                      else run_cost_bench())
     corpus = default_corpus()
     if corpus is None:
         result["real"] = "no corpus: run from a source checkout (tests/data/labels.json)"

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 from marknav.core.errors import InputError
 
 if TYPE_CHECKING:
+    from marknav.missions.detector import CameraDetector
     from marknav.missions.schema import Mission
     from marknav.vision.detect import Mark
 
@@ -19,14 +20,17 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "detect",
         help="find coloured circular marks in images",
         description="Detect marks (colour, centre, radius, axes, angle, shape, score) in each "
-                    "IMAGE with the mission's palette (or the built-in red, orange, yellow, "
-                    "green, blue). With --mission, also each mark's distance by the mission's "
-                    "range law (camera.range) and its offset to the left of the camera axis.",
+                    "IMAGE. With --mission, with the very detector `marknav run` builds from "
+                    "the mission (its palette and camera.detect settings: horizon prior, "
+                    "farthest range, white balance, faint-blob floor), and each mark's distance "
+                    "by the mission's range law and its offset to the left of the camera axis; "
+                    "without, the plain detector with the built-in red, orange, yellow, green, "
+                    "blue palette.",
     )
     p.add_argument("images", metavar="IMAGE", nargs="+", help="image files")
     p.add_argument("--mission", metavar="MISSION",
-                   help="take the palette from this mission, and give distances by its "
-                        "camera.range law")
+                   help="detect as the robot does on this mission (palette, camera.detect), "
+                        "and give distances by its range law")
     p.add_argument("--json", action="store_true",
                    help="print [{image, marks: [{colour, x, y, radius, axes, angle, shape, "
                         "score}]}]")
@@ -38,6 +42,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 def run(args: argparse.Namespace) -> int:
     import cv2
 
+    from marknav.missions.detector import mission_detector
     from marknav.vision.annotate import annotate
     from marknav.vision.detect import Detector
     from marknav.vision.palette import DEFAULT_PALETTE, Palette
@@ -45,18 +50,19 @@ def run(args: argparse.Namespace) -> int:
 
     palette: Palette = DEFAULT_PALETTE
     mission = None
+    detector: Detector | CameraDetector = Detector(palette)
     if args.mission:
         from marknav.missions.schema import load_mission
 
         mission = load_mission(args.mission)
-        palette = mission.palette()
+        detector = mission_detector(mission)
+        palette = detector.palette
     images = [(name, read_image(name)) for name in args.images]  # all readable, or exit 2
     if args.annotate is not None:
         try:
             args.annotate.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise InputError(f"cannot create the folder: {exc}", file=str(args.annotate)) from None
-    detector = Detector(palette)
     results = []
     for name, image in images:
         marks = detector.detect(image)
@@ -90,12 +96,19 @@ def run(args: argparse.Namespace) -> int:
 
 def mark_position(mark: Mark, image_width: int, mission: Mission) -> dict[str, float]:
     """The mark's distance (mm, the mission's range law) and offset to the left of the camera's
-    axis (mm), as perception estimates them (paper eqs. 19/2 and 21)."""
-    from marknav.missions.camera import range_model_of
-    from marknav.vision.estimate import estimate
+    axis (mm), as perception estimates them (a disc at camera height: paper eqs. 19/2 from the
+    vertical semi-axis, and the bearing of its horizontal ends)."""
+    from marknav.missions.camera import mission_intrinsics, mission_range_model
+    from marknav.vision.estimate import estimate_disc
 
-    est = estimate(x_px=mark.x, radius_px=mark.radius, cx=image_width / 2.0,
-                   model=range_model_of(mission), mark_radius_mm=mission.marks.radius_mm)
+    cam = mission.camera
+    intr = mission_intrinsics(mission)
+    same = image_width == cam.width
+    cx = intr.cx if intr is not None and same else 0.5 * (image_width - 1)
+    focal = intr.fx if intr is not None and same else cam.focal_px * image_width / cam.width
+    est = estimate_disc(x_px=mark.x, axes=mark.axes, angle_deg=mark.angle_deg, cx=cx,
+                        model=mission_range_model(mission)[0],
+                        mark_radius_mm=mission.marks.radius_mm, focal_px=focal)
     return {"distance_mm": round(est.distance_mm, 1), "left_mm": round(est.left_mm, 1)}
 
 

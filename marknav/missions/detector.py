@@ -16,6 +16,10 @@ camera model (``camera.detect`` in the mission file).
 
 Frames of another size than the mission's camera (a camera that delivers another mode) get
 their own detector, the focal length and principal point scaled to them.
+
+**One detector per mission**: :func:`mission_detector` is the only way the project builds a
+mission's detector — perception (``marknav run``) and ``marknav detect --mission`` both call it,
+so the command a user tunes with answers as the robot does.
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ from marknav.vision.detect.geometry import U8Array
 from marknav.vision.palette import Palette
 
 __all__ = ["HORIZON_SLACK_PX", "ROBOT_FLOOR_PX", "ROBOT_TINT_LIMIT", "CameraDetector",
-           "camera_detector_config"]
+           "camera_detector_config", "mission_detector"]
 
 #: Rows added to the horizon tolerance for the error of a measured centre.
 HORIZON_SLACK_PX = 4.0
@@ -120,3 +124,14 @@ class CameraDetector:
         """The marks in one BGR frame (see :meth:`Detector.detect`)."""
         height, width = image.shape[:2]
         return self.detector_for(width, height).detect(image)
+
+
+def mission_detector(mission: Mission, camera: object = None) -> CameraDetector:
+    """The detector of ``mission``'s camera: its palette, ``camera.detect`` settings and the
+    horizon row of its principal point (:func:`~marknav.missions.camera.mission_intrinsics`:
+    the mission's ``camera.intrinsics``, else those ``camera`` knows of itself, else the image
+    centre). Perception and ``marknav detect --mission`` both build theirs here."""
+    from marknav.missions.camera import mission_intrinsics
+
+    intrinsics = mission_intrinsics(mission, camera)
+    return CameraDetector.for_mission(mission, None if intrinsics is None else intrinsics.cy)

@@ -24,10 +24,11 @@ from marknav.behaviours.target import (
 from marknav.testing import RobotMark
 
 
-def seen(colour: str, x: float, y: float, t: float = 0.0) -> keys.SeenMark:
+def seen(colour: str, x: float, y: float, t: float = 0.0,
+         radius_px: float = 10.0) -> keys.SeenMark:
     """A mark seen from the origin facing +y (forward = y, left = -x)."""
     return keys.SeenMark(colour=colour, forward_mm=y, left_mm=-x, world_x=x, world_y=y,
-                         x_px=0.0, radius_px=10.0, image_width=640, t=t)
+                         x_px=0.0, radius_px=radius_px, image_width=640, t=t)
 
 
 def locked(x: float, y: float) -> keys.Target:
@@ -73,10 +74,15 @@ def test_a_close_sighting_beyond_the_floor_is_another_mark(rig):
     assert t.world == (-100.0, 600.0) and t.sighting is None
 
 
-def test_far_away_the_gate_is_a_fifth_of_the_range():
+def test_far_away_the_gate_is_the_laws_error_and_the_radius_error():
+    # A 100 mm mark 2 m away is 29.5 px across its radius (f = 590 px): gate (0.2 + 0.5 / 29.5)
+    # of the range, 444 mm at (430, 2000) and 445 mm at (460, 2000).
     target = locked(0.0, 2000.0)
-    assert associate([seen("red", 390.0, 2000.0)], target) is not None  # gate 400 mm at 2 m
-    assert associate([seen("red", 420.0, 2000.0)], target) is None
+    assert associate([seen("red", 430.0, 2000.0, radius_px=29.5)], target) is not None
+    assert associate([seen("red", 460.0, 2000.0, radius_px=29.5)], target) is None
+    # A smaller image radius (a smaller mark, a shorter lens) reads the range less precisely:
+    # the same offset is within its gate.
+    assert associate([seen("red", 460.0, 2000.0, radius_px=12.0)], target) is not None
 
 
 def test_a_passed_mark_seen_again_from_close_by_stays_passed():

@@ -25,9 +25,15 @@ from marknav.planning.kinematics import Pose
 
 
 def seen(colour: str, x: float, y: float, t: float = 0.0) -> keys.SeenMark:
-    """A mark seen from the origin facing +y (forward = y, left = -x)."""
+    """A 100 mm mark seen from the origin facing +y (forward = y, left = -x) by a camera of
+    f = 590 px (its image radius f·R/d)."""
     return keys.SeenMark(colour=colour, forward_mm=y, left_mm=-x, world_x=x, world_y=y,
-                         x_px=0.0, radius_px=10.0, image_width=640, t=t)
+                         x_px=0.0, radius_px=radius_at(y), image_width=640, t=t)
+
+
+def radius_at(forward_mm: float) -> float:
+    """The image radius (px) of a 100 mm mark ``forward_mm`` ahead, f = 590 px."""
+    return 590.0 * 100.0 / max(forward_mm, 100.0)
 
 
 def target(**kw: object) -> keys.Target:
@@ -63,7 +69,7 @@ def test_the_gate_is_inclusive():
 
 def test_locked_wins_over_remembered_a_locked_target_keeps_the_strict_gate():
     t = target(locked=True, remembered=True, world_x=0.0, world_y=2370.0)
-    assert associate([seen("red", 0, 1900)], t) is None  # 470 mm > the gate of 380 mm
+    assert associate([seen("red", 0, 1900)], t) is None  # 470 mm > the gate of 407 mm
 
 
 def test_a_locked_target_may_be_near_a_passed_mark_of_its_colour():
@@ -97,10 +103,13 @@ def test_remember_skips_far_marks_but_not_the_near_ones_after_them():
 
 def test_remember_matches_in_both_coordinates():
     known = remember((), [seen("red", 0, 1500)])
-    moved_on = remember(known, [seen("red", 0, 1900)])  # 400 mm further on: gate 300 mm
-    assert [k.world for k in moved_on] == [(0, 1500), (0, 1900)]
-    aside = remember(known, [seen("red", 400, 1500)])  # 400 mm aside
-    assert [k.world for k in aside] == [(0, 1500), (400, 1500)]
+    # gate at 2 m: (0.2 + 0.5 px / 29.5 px) × 2000 mm = 434 mm
+    moved_on = remember(known, [seen("red", 0, 2000)])  # 500 mm further on
+    assert [k.world for k in moved_on] == [(0, 1500), (0, 2000)]
+    aside = remember(known, [seen("red", 500, 2000)])  # 500 mm aside of that
+    assert [k.world for k in remember(moved_on, [seen("red", 500, 2000)])] == [
+        (0, 1500), (0, 2000), (500, 2000)]
+    assert [k.world for k in aside] == [(0, 1500), (500, 2000)]
     again = remember((replace(known[0], missed=2),), [seen("red", 50, 1520)])
     assert [(k.seen, k.missed) for k in again] == [(2, 0)]  # seen again: misses forgotten
 
@@ -229,7 +238,7 @@ def seen_from(pose: Pose, colour: str, x: float, y: float, t: float = 0.0) -> ke
 
     fwd, left = to_robot_frame(pose, (x, y))
     return keys.SeenMark(colour=colour, forward_mm=fwd, left_mm=left, world_x=x, world_y=y,
-                         x_px=0.0, radius_px=10.0, image_width=640, t=t)
+                         x_px=0.0, radius_px=radius_at(fwd), image_width=640, t=t)
 
 
 @pytest.mark.parametrize(("offset", "near"), [

@@ -89,7 +89,7 @@ def test_a_disc_is_measured_to_a_fraction_of_a_pixel(radius: float) -> None:
     big = canvas(240, 320)
     disc(big, 161.3, 118.7, radius, bgr(RED.centre_hue))
     (mark,) = Detector((RED, BLUE)).detect(finish(big))
-    assert mark.colour == "red" and mark.shape == "circle" and mark.angle_deg == 0.0
+    assert mark.colour == "red" and mark.shape == "circle" and 0.0 <= mark.angle_deg < 180.0
     assert (mark.x, mark.y) == pytest.approx((161.3, 118.7), abs=0.2)
     assert mark.radius == pytest.approx(radius, abs=0.3)
     assert mark.axes[0] == mark.radius >= mark.axes[1] > 0.9 * radius
@@ -116,7 +116,7 @@ def test_marks_come_largest_first_with_their_json_form() -> None:
     assert [m.radius for m in marks] == sorted((m.radius for m in marks), reverse=True)
     d = marks[0].to_dict()
     assert list(d) == ["colour", "x", "y", "radius", "axes", "angle", "shape", "score"]
-    assert d["colour"] == "green" and d["shape"] == "circle" and d["angle"] == 0.0
+    assert d["colour"] == "green" and d["shape"] == "circle" and 0.0 <= d["angle"] < 180.0
     assert d["x"] == round(marks[0].x, 2) and d["axes"] == [round(a, 2) for a in marks[0].axes]
 
 

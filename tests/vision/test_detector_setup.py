@@ -4,6 +4,7 @@ tolerance, and perception building it."""
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Callable
 from pathlib import Path
@@ -15,7 +16,12 @@ import pytest
 from marknav.behaviours import keys
 from marknav.behaviours.perception import Perception
 from marknav.cli.main import main
-from marknav.missions.detector import HORIZON_SLACK_PX, ROBOT_FLOOR_PX, CameraDetector
+from marknav.missions.detector import (
+    HORIZON_SLACK_PX,
+    ROBOT_FLOOR_PX,
+    CameraDetector,
+    mission_detector,
+)
 from marknav.missions.schema import Mission, load_mission
 from marknav.testing import FakeRobot
 from marknav.vision.sources import Frame
@@ -160,3 +166,54 @@ class _Frames:
 
     def close(self) -> None:
         pass
+
+
+ONE_DETECTOR = """\
+name: t
+route: [red]
+marks: {radius_mm: 100, colours: {red: {hue: [170, 10], side: left}}}
+camera:
+  focal_px: 590
+  intrinsics: {fx: 590, fy: 590, cx: 319.5, cy: 300}
+  detect: {max_range_mm: 5000, horizon_tolerance_deg: 2, min_chroma_contrast: 30,
+           max_readings: 50, tint_limit: 0.1}
+"""
+
+
+def test_run_and_detect_build_one_detector_from_the_mission(
+        tmp_path: Path, blackboard: object, manual_clock: object,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """Perception (``marknav run``) and ``marknav detect --mission`` take the detector from
+    :func:`mission_detector`: the same config (every ``camera.detect`` setting and the horizon
+    row of the intrinsics' principal point, 300 here) and the same marks."""
+    path = tmp_path / "m.yaml"
+    path.write_text(ONE_DETECTOR)
+    mission = load_mission(path)
+    image = np.full((480, 640, 3), 120, np.uint8)
+    cv2.circle(image, (200, 300), 30, (0, 0, 230), -1)  # on the principal point's row
+    cv2.circle(image, (480, 240), 30, (0, 0, 230), -1)  # on the image centre's row: 60 px off
+    perception = Perception()
+    perception.setup(robot=FakeRobot(clock=manual_clock), clock=manual_clock, mission=mission,
+                     camera=_Frames([Frame(image=image, t=0.0, index=0)]))
+    perception.tick_once()
+    robot_cfg = perception._detector.config_for(640, 480)
+    expected = mission_detector(mission).config_for(640, 480)
+    assert robot_cfg == expected
+    assert expected.horizon_row == pytest.approx(300.0)
+    assert expected.min_chroma_contrast == 30.0 and expected.max_readings == 50
+    assert expected.tint_limit == 0.1
+    assert expected.min_radius == pytest.approx(0.9 * 590 * 100 / 5000)
+    seen = perception.blackboard.get(keys.MARKS)
+    assert [round(m.x_px) for m in seen] == [200]
+
+    frame = tmp_path / "frame.png"
+    cv2.imwrite(str(frame), image)
+    assert main(["detect", str(frame), "--mission", str(path), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    marks = out[0]["marks"]
+    assert [(m["colour"], round(m["x"]), round(m["y"])) for m in marks] == [("red", 200, 300)]
+    assert [m.to_dict()["x"] for m in mission_detector(mission).detect(image)] == \
+        [m["x"] for m in marks]
+    # Without --mission the plain detector finds both.
+    assert main(["detect", str(frame), "--json"]) == 0
+    assert len(json.loads(capsys.readouterr().out)[0]["marks"]) == 2

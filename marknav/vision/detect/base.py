@@ -62,7 +62,5 @@ class _DetectorBase:
         angle = math.degrees(e.theta) if major == e.a else math.degrees(e.theta) + 90.0
         angle %= 180.0
         shape: Shape = "circle" if minor >= cfg.circle_ratio * major else "ellipse"
-        if shape == "circle":
-            angle = 0.0
         return Mark(self.palette[colour].name, e.cx, e.cy, major, (major, minor), angle, shape,
                     min(1.0, score))

@@ -229,7 +229,7 @@ class _ColourStage(_DetectorBase):
         into its blue–amber part ``(ln B − ln R)/2``, kept, and its green–magenta part
         ``ln G − (ln B + ln R)/2``, held to ±``tint_limit``; their mean is kept. ``None`` (the
         bare detector's default): plain grey world — photographs from unknown cameras carry
-        green tints of their own (OpenCV's board.jpg needs −0.25).
+        green tints of their own (a sensor's raw green excess can need −0.25).
         """
         lo, hi = self.config.gain_limits
         limit = self.config.tint_limit

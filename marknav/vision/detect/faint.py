@@ -12,11 +12,10 @@ two means), each with its grey component removed. The floor scales down in dim s
 below ``val_ref_grey``), as the palette's value floors do.
 
 Measured on the project's corpus (``tests/data``; chroma difference in BGR units, divided by the
-dim-scene scale): the 81 marks found in the 48 composited frames 49-256 (the lowest: a large mark
-crossed by a pole on ``logo.jpg``; the next 64), the 12 labelled real marks 119-187, 180 marks of
-the synthetic benchmark frames 66 and more, 134 marks in simulator frames of the slalom 108 and
-more; the six false marks the natural photographs gave at 640 px 17-106 (four of them 17-41), the
-twelve in the composited frames 24-121 (six of them 24-41).
+dim-scene scale): marks in composited frames 49-256 (the lowest a large mark crossed by a pole;
+the rest 64 and more), labelled real marks 119-187, synthetic benchmark marks 66 and more,
+simulator marks 108 and more; the false marks of natural photographs and composites 17-121, most
+of them 17-41.
 """
 
 from __future__ import annotations

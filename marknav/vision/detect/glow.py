@@ -6,10 +6,9 @@ but a linear gradient is as bright at the centre as on average around a ring abo
 test compares the brightness (the largest channel of the mean colour) inside 0.35 of the mark's
 ellipse with that on the ring between 0.5 and 0.75 of it, in the frame's own pixels.
 
-Measured on the project's corpus (``tests/data``; ratio core/ring): the 81 marks found in the
-48 composited frames 0.70-1.08 (poles and boards across them included), the 12 labelled
-smarties and the retina disc 1.01-1.04, the seven small galaxies of ``hubble_deep_field.jpg``
-that the palette's red takes for marks 1.41-1.80.
+Measured on the project's corpus (``tests/data``; ratio core/ring): painted marks, real and
+composited, with poles and boards across them, 0.70-1.08; glows that the palette's red takes for
+marks (small galaxies in an astronomical photograph) 1.41-1.80. :data:`GLOW_RATIO` sits between.
 """
 
 from __future__ import annotations

@@ -19,7 +19,9 @@ class Mark:
     """One detected mark, in pixels (u right, v down; pixel centres at integer coordinates).
 
     ``radius`` is the semi-major axis; ``axes`` is (semi-major, semi-minor); ``angle_deg`` is the
-    direction of the major axis, degrees in [0, 180) from +u towards +v (0 for circles).
+    direction of the major axis, degrees in [0, 180) from +u towards +v, as fitted also for
+    circles (it says which axis stands upright, which the range needs:
+    :func:`marknav.vision.estimate.estimate_disc`; it means nothing when the axes are equal).
     ``score`` in [0, 1] grows with the share of the outline seen, the fit quality and the colour
     purity.
     """

@@ -1,0 +1,33 @@
+"""The held-out split and the scoring of ``tools/perception_holdout.py``."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from marknav.runs.holdout import Frame, Truth, half, score
+from marknav.vision.detect import Detector
+from marknav.vision.palette import DEFAULT_PALETTE
+
+
+def test_the_split_is_fixed_by_name_and_about_even() -> None:
+    names = [f"photo-{k}.jpg" for k in range(400)]
+    halves = [half("real", n) for n in names]
+    assert halves == [half("real", n) for n in names]  # no state, no seed
+    assert 160 < halves.count("held_out") < 240
+    assert {half("real", "x.jpg"), half("composite", "x.jpg")} <= {"tuning", "held_out"}
+
+
+def test_score_counts_found_marks_false_marks_and_the_range_error() -> None:
+    image = np.full((240, 320, 3), 120, np.uint8)
+    cv2.circle(image, (80, 120), 30, (0, 0, 230), -1, cv2.LINE_AA)  # the red mark
+    cv2.circle(image, (240, 120), 20, (200, 60, 0), -1, cv2.LINE_AA)  # an unlabelled blue disc
+    truth = Truth("red", 80.0, 120.0, 30.0, 30.0, 0.0)
+    frames = [Frame("t", "a", image, DEFAULT_PALETTE, (truth,))]
+    result = score(frames, lambda palette: Detector(palette).detect)
+    assert result["recall"] == 1.0 and result["false_per_frame"] == 1.0
+    assert result["range_err_p95"] < 0.03
+    wrong = Truth("green", 80.0, 120.0, 30.0, 30.0, 0.0)
+    missed = score([Frame("t", "a", image, DEFAULT_PALETTE, (wrong,), counts_false=False)],
+                   lambda palette: Detector(palette).detect)
+    assert missed["recall"] == 0.0 and missed["false_per_frame"] is None
