@@ -23,7 +23,8 @@ def _script(shell: str, capsys: pytest.CaptureFixture[str]) -> str:
     (["marknav", "run", "sla"], ["slalom"]),  # a built-in example's name
     (["marknav", "run", "slalom", "--max-t"], ["--max-time"]),
     (["marknav", "run", "slalom", "--tree", ""], ["auto", "ascii", "unicode", "none"]),
-    (["marknav", "bench", ""], ["vision", "tree", "loop", "safety", "render", "mujoco", "dask", "all"]),
+    (["marknav", "bench", ""],
+     ["vision", "tree", "loop", "safety", "render", "mujoco", "dask", "all"]),
     (["marknav", "completion", "f"], ["fish"]),
 ])
 def test_bash_completes_commands_options_values_and_examples(
