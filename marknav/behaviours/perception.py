@@ -4,7 +4,12 @@ Each tick :class:`Perception` reads the latest frame from the camera (``FrameSou
 finds the marks (:class:`marknav.vision.detect.Detector`), estimates each one's position in the
 robot frame (:func:`marknav.vision.estimate.estimate`: range by eq. 19 or eq. 2, lateral offset by
 eq. 21; camera assumed at the robot's centre, looking along its heading) and places it in the world
-frame with the robot's odometry pose. It writes ``/marknav/frame``, ``/marknav/marks``,
+frame with the robot's odometry pose *at the frame's capture time* (``Frame.t``: a short history
+of the poses of the last ticks, interpolated — :mod:`marknav.planning.pose_history`); a mark
+placed with the pose at processing time would sit v·τ too far along the robot's motion for a
+frame τ old. Sightings and the frame carry the capture time; ``FrameInfo.latency_s`` is the
+frame's age when processed (capture to this tick), which the status panel, the event log and
+the report show. It writes ``/marknav/frame``, ``/marknav/marks``,
 ``/marknav/last_seen`` and refreshes the target's sighting (:func:`~marknav.behaviours.target.
 associate`), so every later node of the tick sees one consistent picture.
 
@@ -57,6 +62,7 @@ from marknav.missions.camera import (
     mission_range_model,
 )
 from marknav.planning.kinematics import Pose, to_world_frame
+from marknav.planning.pose_history import PoseHistory
 from marknav.planning.wheel_ratio import WheelRatioCalibrator, WheelRatioStep
 from marknav.robot.robot import BUMPED, WheelCalibratable
 from marknav.vision.estimate import RangeModel, estimate
@@ -262,6 +268,12 @@ class Perception(PerceptionBase):
         self.range_calibrations: list[RangeLawStep] = []
         self._range_times: list[float] = []
         self.range_source = "setup(range_model=...)"
+        #: The odometry poses of the last ticks, to place a frame's marks at its capture time.
+        self.poses = PoseHistory()
+        #: Every processed frame's age when processed (s): capture to the tick.
+        self.latencies: list[float] = []
+        #: Frames older than the pose history: placed with its oldest pose.
+        self.frames_beyond_history = 0
 
     def configure(self, **kwargs: Any) -> None:
         camera = kwargs.get("camera")
@@ -306,24 +318,36 @@ class Perception(PerceptionBase):
         if self._detector is None or self._range_model is None or self._mark_radius_mm is None:
             raise SetupError(f"{self._owner} needs mission= in tree.setup() (palette, mark "
                              "radius, range model)")
+        now = self.now()
+        robot = self.robot
+        calibrated = (robot if self._calibrator is not None
+                      and self._wheel_calibratable(robot) else None)
+        if calibrated is not None:
+            pose_now, sensitivity = calibrated.odometry_snapshot()
+        else:
+            pose_now, sensitivity = robot.pose(), None
+        self.poses.add(now, pose_now)
         frame = self._camera.read()
         if frame is None or frame.index == self._last_index:
             return None
         self._last_index = frame.index
         height, width = frame.image.shape[:2]
-        t = self.now()
+        # The capture time (a source's clock a little ahead of the mission clock counts as now).
+        t = min(frame.t, now)
+        self.latencies.append(now - t)
         found: list[Mark] = list(self._detector.detect(frame.image))
         self.last_frame, self.last_detections = frame, tuple(found)
         intr = self._frame_intrinsics(width, height)
         if intr is not None and intr.distorted:
             found = [undistort_mark(m, intr) for m in found]
-        robot = self.robot
-        calibrated = (robot if self._calibrator is not None
-                      and self._wheel_calibratable(robot) else None)
-        if calibrated is not None:
-            pose, sensitivity = calibrated.odometry_snapshot()
-        else:
-            pose, sensitivity = robot.pose(), None
+        # The odometry pose at capture time. (The wheel-scale sensitivity stays the tick's: it
+        # restarts from zero at each re-anchoring, and it changes little within a latency.)
+        at = self.poses.at(t)
+        pose = pose_now
+        if at is not None:
+            pose = at.pose
+            if at.clamped_s > 1e-6 and t < now:
+                self.frames_beyond_history += 1
         cx = intr.cx if intr is not None else keys.image_centre(width)
         marks = tuple(self._to_seen(m, width, t, pose, cx) for m in found)
         if calibrated is not None and sensitivity is not None:
@@ -332,7 +356,7 @@ class Perception(PerceptionBase):
             self._learn_range(pose, found, marks, width, height)
         sigma = self.range_learner.sigma[0] if self.range_learner is not None else 0.0
         info = keys.FrameInfo(index=frame.index, t=t, width=width, height=height,
-                              marks=len(marks), range_sigma=sigma)
+                              marks=len(marks), range_sigma=sigma, latency_s=now - t)
         return Observation(frame=info, marks=marks, pose=pose)
 
     def _wheel_calibratable(self, robot: object) -> TypeGuard[WheelCalibratable]:

@@ -329,6 +329,14 @@ class Camera(BaseModel):
         default=DetectSettings(),
         description="Detector settings from the camera model: farthest range, horizon prior.",
     )
+    latency_s: float = Field(
+        default=0.0, ge=0.0, le=2.0, allow_inf_nan=False,
+        description="Seconds from a frame's capture to its arrival that the camera does not "
+        "report: a frame's capture time is its arrival minus this (for an MJPEG stream from "
+        "`marknav serve-camera`, which sends each frame's age at sending, arrival minus that "
+        "age minus this: then only the network's share). Marks are placed with the odometry "
+        "pose at the capture time. The simulator stamps its frames itself.",
+    )
     learn_range: bool = Field(
         default=True,
         description="Learn the range law while driving (odometry measures how far the robot "
@@ -521,6 +529,26 @@ class Sim(BaseModel):
         default=0, ge=0,
         description="Random seed of the simulator (--seed overrides it).",
     )
+    conditions: dict[str, Any] = Field(
+        default_factory=dict,
+        description="World conditions that replace the world's own (its file's, a generated or "
+        "randomised one's), e.g. {camera_latency_s: 0.4}: the keys of a world's conditions "
+        "(marknav schema --world). With --set: --set sim.conditions.camera_latency_s=0.4.",
+    )
+
+    @field_validator("conditions")
+    @classmethod
+    def _known_conditions(cls, value: dict[str, Any]) -> dict[str, Any]:
+        from marknav.sim.world import Conditions
+
+        try:
+            Conditions.model_validate(value)
+        except ValidationError as exc:
+            problems = "; ".join(
+                f"{'.'.join(str(p) for p in e['loc']) or 'conditions'}: {e['msg']}"
+                for e in exc.errors())
+            raise ValueError(f"not world conditions ({problems})") from None
+        return value
 
 
 # --------------------------------------------------------------------------------------------

@@ -9,7 +9,8 @@ mark: {index, x_mm, y_mm}, truth, truth_detail}]``, ``collisions``, ``safety_eve
 state}]``, ``tick_ms: {p50, p99, max}``, ``overruns`` — plus ``mission``, ``seed``, ``robot``,
 ``camera``, ``speedup`` and, from the simulator, ``truth_path: [[t, x_mm, y_mm], ...]``,
 and ``overrides``: the ``--set KEY=VALUE`` settings the run used on top of the mission file; and
-``range_law``: the range law learnt while driving.
+``range_law``: the range law learnt while driving; ``frame_latency_ms``: the processed
+frames' measured age (capture to use).
 """
 
 from __future__ import annotations
@@ -91,6 +92,21 @@ class RunReport:
     range_law: dict[str, Any] | None = None
     # Simulator only: the true path, [[t, x_mm, y_mm], ...] at 10 Hz, to re-check the truth.
     truth_path: list[list[float]] | None = None
+    # The processed frames' age when processed (capture to tick), measured: {p50, p95, max,
+    # frames}; plus frames_beyond_history: frames older than the pose history (placed with its
+    # oldest pose).
+    frame_latency_ms: dict[str, float] | None = None
+
+    def set_frame_latencies(self, latency_s: Sequence[float], beyond_history: int = 0) -> None:
+        if latency_s:
+            ms = np.asarray(latency_s) * 1000.0
+            self.frame_latency_ms = {
+                "p50": round(float(np.percentile(ms, 50)), 1),
+                "p95": round(float(np.percentile(ms, 95)), 1),
+                "max": round(float(ms.max()), 1),
+                "frames": len(ms),
+                "frames_beyond_history": beyond_history,
+            }
 
     @property
     def speedup(self) -> float | None:

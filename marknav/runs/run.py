@@ -70,6 +70,17 @@ def default_max_time_s(mission: Mission) -> float:
 
 
 def _world_for(mission: Mission, req: RunRequest, seed: int) -> Any:
+    """The world of a simulated run, with the mission's ``sim.conditions`` on top of its own."""
+    world = _base_world(mission, req, seed)
+    changes = mission.sim.conditions if mission.sim is not None else {}
+    if changes:
+        conditions = type(world.conditions).model_validate(
+            {**world.conditions.model_dump(), **changes})
+        world = world.model_copy(update={"conditions": conditions})
+    return world
+
+
+def _base_world(mission: Mission, req: RunRequest, seed: int) -> Any:
     from marknav.sim import world as worldmod
 
     if req.world_model is not None:
@@ -124,7 +135,7 @@ def make_environment(mission: Mission, req: RunRequest, seed: int) -> Environmen
     from marknav.vision.sources import open_source
 
     # timeout 0: the control cycle takes the newest frame if there is one, and never waits
-    camera = open_source(req.camera, timeout_s=0.0)
+    camera = open_source(req.camera, timeout_s=0.0, latency_s=mission.camera.latency_s)
     try:
         driver = CreateDriver(
             req.robot, model=mission.robot.model,
@@ -317,8 +328,10 @@ def _fill_range_law(root: py_trees.behaviour.Behaviour, mission: Mission,
     from marknav.behaviours.perception import Perception
 
     for node in root.iterate():
-        if isinstance(node, Perception) and node.range_learner is not None:
-            report.range_law = node.learnt_range(pass_times(mission))
+        if isinstance(node, Perception):
+            report.set_frame_latencies(node.latencies, node.frames_beyond_history)
+            if node.range_learner is not None:
+                report.range_law = node.learnt_range(pass_times(mission))
             return
 
 

@@ -26,9 +26,11 @@ Rendering (:class:`Renderer`, :func:`render`):
   ``noise_sigma``, from a pre-generated tile at a random offset drawn from ``rng``).
 
 :class:`SimCamera` is a :class:`marknav.vision.sources.FrameSource`: each ``read`` renders the
-pose from ``pose_fn()`` at ``clock.now()``; ``latency_frames`` delays delivery through a ring
-buffer. The principal point is the image centre ((width − 1)/2, (height − 1)/2), pixel centres
-at integer coordinates, as OpenCV's moments and ``fitEllipse`` count them.
+world as it was at the frame's capture time, ``clock.now()`` minus the world's
+``camera_latency_s + processing_s`` (continuous time: the pose comes from ``pose_at(t)``, the
+simulator's true path interpolated), and stamps the frame with that capture time;
+``latency_frames`` further delays delivery through a ring buffer. The principal point is the
+image centre ((width − 1)/2, (height − 1)/2), pixel centres at integer coordinates, as OpenCV's moments and ``fitEllipse`` count them.
 """
 
 from __future__ import annotations
@@ -452,10 +454,13 @@ def render(
 class SimCamera:
     """The simulator's camera as a :class:`~marknav.vision.sources.FrameSource`.
 
-    Each :meth:`read` renders the world from ``pose_fn()`` at ``clock.now()``; with
-    ``latency_frames`` = L it delivers the frame rendered L reads earlier (the first frame until
-    L frames have been taken). ``seed`` fixes the noise. ``close`` is idempotent; a closed
-    camera reads ``None``.
+    Each :meth:`read` renders the world at the capture time ``clock.now() − delay_s`` (``delay_s``
+    defaults to the world's ``camera_latency_s + processing_s``) from ``pose_at(capture time)``
+    (without ``pose_at``, or with no delay: ``pose_fn()``, the pose now) and stamps the frame
+    with the capture time, as a camera whose driver reports it would. With ``latency_frames``
+    = L it delivers the frame rendered L reads earlier (the first frame until L frames have
+    been taken). ``seed`` fixes the noise. ``close`` is idempotent; a closed camera reads
+    ``None``.
     """
 
     def __init__(
@@ -469,14 +474,23 @@ class SimCamera:
         seed: int = 0,
         latency_frames: int | None = None,
         name: str = "sim",
+        pose_at: Callable[[float], Pose] | None = None,
+        delay_s: float | None = None,
     ) -> None:
         latency = world.conditions.latency_frames if latency_frames is None else latency_frames
         if latency < 0:
             raise ValueError(f"latency_frames must be ≥ 0, got {latency}")
+        cond = world.conditions
+        delay = cond.camera_latency_s + cond.processing_s if delay_s is None else delay_s
+        if not (math.isfinite(delay) and delay >= 0.0):
+            raise ValueError(f"delay_s must be ≥ 0, got {delay}")
         self.name = name
         self.latency_frames = latency
+        #: Capture to processing (s): what the tick processing a frame sees of its age.
+        self.delay_s = float(delay)
         self.renderer = Renderer(world, palette, config)
         self._pose_fn = pose_fn
+        self._pose_at = pose_at
         self._clock = clock
         self._rng = np.random.default_rng([int(seed), 0xCA3E7A])
         self._buffer: deque[Frame] = deque(maxlen=latency + 1)
@@ -500,8 +514,11 @@ class SimCamera:
     def read(self) -> Frame | None:
         if self._closed:
             return None
-        image = self.renderer.render(self._pose_fn(), self._rng)
-        self._buffer.append(Frame(image=image, t=self._clock.now(), index=self._index))
+        t = self._clock.now() - self.delay_s
+        pose = (self._pose_at(t) if self._pose_at is not None and self.delay_s > 0.0
+                else self._pose_fn())
+        image = self.renderer.render(pose, self._rng)
+        self._buffer.append(Frame(image=image, t=t, index=self._index))
         self._index += 1
         return self._buffer[0]
 

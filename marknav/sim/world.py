@@ -237,6 +237,11 @@ class Conditions(_Strict):
       left's for the same command (e.g. unequal tyres); the encoders do not see it.
     - ``wheel_slip``: fraction of each wheel's travel lost to slip; the encoders do not see it.
     - ``latency_frames``: the camera delivers the frame taken this many reads earlier.
+    - ``camera_latency_s``: the time from a frame's capture to its arrival at the computer
+      (exposure, encoding, a Wi-Fi link: 0.13–0.3 s for MJPEG over Wi-Fi), in continuous time.
+    - ``processing_s``: the time from a frame's arrival to the wheel command it leads to
+      (detection, estimation, the tree). The simulated tick takes no simulated time, so the
+      frame a tick processes is one captured ``camera_latency_s + processing_s`` before it.
     - Room (:mod:`marknav.sim.scenery`): ``floor`` (``plain``, ``wood``, ``carpet``) at
       ``floor_saturation``; ``wall`` (``plain`` or ``photo``); ``wall_hue`` (a hue that dominates
       the scene, or none); ``occluders`` (thin poles in front of the marks); ``distractors``
@@ -252,6 +257,8 @@ class Conditions(_Strict):
     wheel_mismatch: Annotated[float, Field(ge=-0.5, le=0.5, allow_inf_nan=False)] = 0.0
     wheel_slip: Annotated[float, Field(ge=0.0, lt=1.0, allow_inf_nan=False)] = 0.0
     latency_frames: Annotated[int, Field(ge=0, le=30)] = 0
+    camera_latency_s: Annotated[float, Field(ge=0.0, le=2.0, allow_inf_nan=False)] = 0.0
+    processing_s: Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False)] = 0.0
     floor: Literal["plain", "wood", "carpet"] = "plain"
     floor_saturation: Annotated[float, Field(ge=0.0, le=255.0, allow_inf_nan=False)] = 120.0
     wall: Literal["plain", "photo"] = "plain"
