@@ -30,7 +30,8 @@ world as it was at the frame's capture time, ``clock.now()`` minus the world's
 ``camera_latency_s + processing_s`` (continuous time: the pose comes from ``pose_at(t)``, the
 simulator's true path interpolated), and stamps the frame with that capture time;
 ``latency_frames`` further delays delivery through a ring buffer. The principal point is the
-image centre ((width − 1)/2, (height − 1)/2), pixel centres at integer coordinates, as OpenCV's moments and ``fitEllipse`` count them.
+image centre ((width − 1)/2, (height − 1)/2), pixel centres at integer coordinates, as
+OpenCV's moments and ``fitEllipse`` count them.
 """
 
 from __future__ import annotations
