@@ -10,7 +10,8 @@ Records (``t``: seconds since the run started, never decreasing; ``kind`` names 
   status or feedback changed; ``panel``: the live view's status figures (target, range, bearing,
   wheel speeds, safety state, marks in view, camera rate, frame latency, overruns); ``pose``:
   odometry ``[x_mm, y_mm, theta_rad]``; ``truth``: the simulator's true pose; ``bb``: the
-  blackboard values behaviours wrote this tick (``/marknav/passed`` and ``/marknav/plans``: only the entries added).
+  blackboard values behaviours wrote this tick (``/marknav/passed`` and ``/marknav/plans``:
+  only the entries added).
 - ``frame`` (each processed camera frame): ``index``, ``size``, ``captured_t`` (its capture
   time, run seconds), ``latency_ms`` (its age when processed), ``marks``: per detection the
   pixels (``x_px``, ``y_px``, ``axes_px``, ``angle_deg``) and the estimate (``forward_mm``,
