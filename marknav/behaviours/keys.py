@@ -263,7 +263,9 @@ class KnownMark:
 
 @dataclass(frozen=True)
 class PassedWaypoint:
-    """A waypoint whose mark was passed: when, on which side, where the robot believed it was."""
+    """A waypoint whose mark was passed: when, on which side, where the robot believed it was,
+    and ``doubt``: why the robot's own evidence (its sightings against the path it drove) does
+    not confirm the pass (``None``: it does)."""
 
     waypoint: int
     waypoint_id: str
@@ -272,6 +274,7 @@ class PassedWaypoint:
     t: float
     mark_x: float
     mark_y: float
+    doubt: str | None = None
 
 
 @dataclass(frozen=True)

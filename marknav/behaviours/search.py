@@ -109,8 +109,8 @@ class SearchWhenLost(DrivingBehaviour):
     def initialise(self) -> None:
         self._t0 = self.now()
         start = self.target()
-        # Found: a sighting newer (by capture time) than the one there was when the search
-        # started — a late frame's sighting counts even when captured before the start.
+        # Found: a sighting captured since the start, or newer than the one there was then (a
+        # late frame's sighting counts even when captured before the start).
         self._seen_t0 = (start.sighting.t if start is not None and start.sighting is not None
                          else -math.inf)
         pose = self.robot.pose()
@@ -131,7 +131,7 @@ class SearchWhenLost(DrivingBehaviour):
             return self.fail("no target selected")
         elapsed = self.now() - self._t0
         seen = target.sighting
-        if seen is not None and seen.t > self._seen_t0:
+        if seen is not None and (seen.t > self._seen_t0 or seen.t >= self._t0):
             self.feedback_message = (f"found {target.label} after "
                                      f"{math.degrees(self.turned_rad):.0f}° ({elapsed:.1f} s)")
             return Status.SUCCESS

@@ -23,7 +23,16 @@ from marknav.core import outputs, signals
 from marknav.core.errors import InputError
 from marknav.missions.schema import Mission, load_mission
 from marknav.runs.cvthreads import one_opencv_thread
-from marknav.runs.report import ABORTED, FAILED, SUCCESS, EventLog, RunReport, WaypointResult
+from marknav.runs.report import (
+    ABORTED,
+    DOUBTFUL,
+    FAILED,
+    PASSED_OUTCOMES,
+    SUCCESS,
+    EventLog,
+    RunReport,
+    WaypointResult,
+)
 from marknav.runs.runlog import Recorder
 from marknav.runs.runner import Environment, RunOptions, run_tree
 
@@ -151,14 +160,20 @@ def make_environment(mission: Mission, req: RunRequest, seed: int) -> Environmen
 
 
 def waypoint_outcomes(mission: Mission, report: RunReport) -> list[str]:
+    """Each waypoint's verdict as the robot sees it: ``passed``, ``doubtful`` (passed by
+    odometry, but its own sightings do not confirm it: the reason goes in the waypoint's
+    ``doubt``), ``failed`` (the first not passed when the run failed) or ``pending``."""
     bb = py_trees.blackboard.Blackboard
     passed = bb.get(keys.PASSED) if bb.exists(keys.PASSED) else ()
-    done = {p.waypoint for p in passed}
+    done = {p.waypoint: p for p in passed}
     out = []
     failed_marked = False
     for i in range(len(mission.route)):
         if i in done:
-            out.append("passed")
+            doubt = done[i].doubt
+            out.append(DOUBTFUL if doubt is not None else "passed")
+            if doubt is not None and i < len(report.waypoints):
+                report.waypoints[i].doubt = doubt
         elif report.outcome != "success" and not failed_marked:
             out.append("failed")
             failed_marked = True
@@ -258,6 +273,11 @@ def _finish(req: RunRequest, mission: Mission, env: Environment | None,
     An exception from the ground truth (a bug) is raised again once the files are written."""
     failure: Exception | None = None
     extra: dict[str, Any] = {}
+    doubts = [f"waypoint {i} ({w.colour}): {w.doubt}"
+              for i, w in enumerate(report.waypoints, start=1) if w.outcome == DOUBTFUL]
+    if report.outcome == SUCCESS and doubts:
+        report.reason += (f", {len(doubts)} of them doubtful by the robot's own evidence: "
+                          + "; ".join(doubts))
     try:
         if env is not None:
             env.close()
@@ -390,11 +410,13 @@ def load(path: str) -> Mission:
 
 def summary(report: RunReport) -> str:
     """One line: what happened."""
-    passed = sum(1 for w in report.waypoints if w.outcome == "passed")
+    passed = sum(1 for w in report.waypoints if w.outcome in PASSED_OUTCOMES)
+    doubtful = sum(1 for w in report.waypoints if w.outcome == DOUBTFUL)
     speed = report.speedup
     speed_s = f", {speed:.1f}x real time" if speed is not None and math.isfinite(speed) else ""
+    doubts = f", {doubtful} of them doubtful" if doubtful else ""
     line = (f"{report.mission}: {report.outcome} — {report.reason} ({passed}/"
-            f"{len(report.waypoints)} waypoints, {report.collisions} collisions, "
+            f"{len(report.waypoints)} waypoints{doubts}, {report.collisions} collisions, "
             f"{report.sim_time_s:.1f} s{speed_s})")
     if report.outcome == ABORTED and report.reason.startswith("interrupted"):
         line += "; wheels stopped"
