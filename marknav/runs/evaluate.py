@@ -461,14 +461,12 @@ def _incident(result: SeedResult, target_mm: float) -> list[str]:
         problems.append(f"{result.collisions} collision{'s' if result.collisions != 1 else ''}")
     got_to = reached(result.waypoints)
     for i, w in enumerate(result.waypoints, start=1):
+        said = (" (reported passed: a silent failure)" if w.silent_failure
+                else " (reported doubtful)" if w.doubtful else "")
         if (i <= got_to and w.truth is not None and not w.confirmed) or w.unverified:
-            problems.append(f"waypoint {i} {w.describe()}")
-        if w.silent_failure:
-            problems.append(f"waypoint {i} ({w.colour}) silent failure: reported passed, the "
-                            f"truth says {w.truth.replace('_', ' ') if w.truth else '?'}")
+            problems.append(f"waypoint {i} {w.describe()}{said}")
         elif w.doubtful:
-            problems.append(f"waypoint {i} ({w.colour}) reported doubtful (truth: "
-                            f"{w.truth.replace('_', ' ') if w.truth else 'unknown'})")
+            problems.append(f"waypoint {i} ({w.colour}) reported doubtful, passed in truth")
         if (w.outcome in PASSED_OUTCOMES and w.min_clearance_mm is not None
                 and w.min_clearance_mm < target_mm):
             problems.append(f"waypoint {i} ({w.colour}) clearance {w.min_clearance_mm:.0f} mm "
