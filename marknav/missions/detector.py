@@ -5,9 +5,14 @@ camera model (``camera.detect`` in the mission file).
   0.9·f·R/d px across its semi-major axis, not below ``ROBOT_FLOOR_PX``; smaller blobs are not
   marks that matter (they are clutter or marks too far to steer by).
 - **Horizon prior** (paper §3.1: marks stand at camera height): mark centres lie on the
-  principal point's row (the image centre's without intrinsics). ``horizon_tolerance_deg``
-  covers the camera's pitch (f·tan t rows) and roll (up to width/2·tan t rows at the image
-  edges), plus ``HORIZON_SLACK_PX`` for the centre's measurement.
+  principal point's row (the image centre's without intrinsics). With the camera's pose
+  (``camera.pitch_deg``, ``roll_deg``, ``height_mm`` and ``marks.height_mm``) the band is placed
+  from it (:func:`horizon_band`): a mark whose centre stands Δh above the camera, d ahead, lies
+  at the row c_y + f·tan(pitch − atan(Δh/d)) — on the horizon row c_y + f·tan(pitch) far away,
+  farthest from it at the nearest range a mark is used at (``navigation.clearance_mm``: passing
+  it); roll moves the image edges by width/2·tan(roll) rows. ``horizon_tolerance_deg`` is the
+  pose's uncertainty (f·tan t rows of pitch, width/2·tan t of roll), plus ``HORIZON_SLACK_PX``
+  for the centre's measurement. Without a pose: a level camera at the marks' height.
 - **White balance held to the room's light** (``tint_limit``): the grey-world correction's
   green–magenta part is limited; a room's lights differ along blue–amber, and a strong green or
   magenta cast in its greys is a painted wall or carpet (:attr:`DetectorConfig.tint_limit`).
@@ -21,7 +26,7 @@ their own detector, the focal length and principal point scaled to them.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 from marknav.missions.schema import ROBOT_TINT_LIMIT, Mission
 from marknav.vision.detect import Detector, DetectorConfig, Mark
@@ -29,7 +34,7 @@ from marknav.vision.detect.geometry import U8Array
 from marknav.vision.palette import Palette
 
 __all__ = ["HORIZON_SLACK_PX", "ROBOT_FLOOR_PX", "ROBOT_TINT_LIMIT", "CameraDetector",
-           "camera_detector_config"]
+           "CameraPose", "camera_detector_config", "horizon_band"]
 
 #: Rows added to the horizon tolerance for the error of a measured centre.
 HORIZON_SLACK_PX = 4.0
@@ -39,21 +44,64 @@ HORIZON_SLACK_PX = 4.0
 ROBOT_FLOOR_PX = 5.0
 
 
+@dataclass(frozen=True)
+class CameraPose:
+    """The camera's pose for the horizon prior: ``pitch_deg`` (up), ``roll_deg``, and the
+    marks' centres above the camera, ``rise_mm = (lo, hi)`` (mm), at ranges from ``near_mm``."""
+
+    pitch_deg: float = 0.0
+    roll_deg: float = 0.0
+    rise_mm: tuple[float, float] = (0.0, 0.0)
+    near_mm: float = 300.0
+
+    @classmethod
+    def of_mission(cls, mission: Mission) -> CameraPose:
+        """The mission's camera pose (what it does not give: level, at the marks' height)."""
+        cam, marks = mission.camera, mission.marks
+        rise = (0.0, 0.0)
+        if marks.height_mm is not None and cam.height_mm is not None:
+            rise = (marks.height_mm[0] - cam.height_mm, marks.height_mm[1] - cam.height_mm)
+        return cls(pitch_deg=cam.pitch_deg or 0.0, roll_deg=cam.roll_deg or 0.0, rise_mm=rise,
+                   near_mm=mission.navigation.clearance_mm)
+
+
+def horizon_band(pose: CameraPose, *, width: int, focal_px: float, centre_row: float,
+                 tolerance_deg: float) -> tuple[float, float]:
+    """Rows ``(lo, hi)`` where the centres of marks can lie (see the module docstring): from the
+    elevations 0 (far) to atan(rise/near) (nearest) of the marks' height range, seen by a camera
+    pitched ``pitch_deg``, widened by the roll's width/2·|tan roll| and by the pose's
+    uncertainty ``tolerance_deg`` ((f + width/2)·tan t) plus :data:`HORIZON_SLACK_PX`. Pure
+    function."""
+    p = math.radians(pose.pitch_deg)
+    lo_rise, hi_rise = pose.rise_mm
+    e_hi = max(0.0, math.atan2(hi_rise, pose.near_mm))
+    e_lo = min(0.0, math.atan2(lo_rise, pose.near_mm))
+    top = centre_row + focal_px * math.tan(p - e_hi)
+    bottom = centre_row + focal_px * math.tan(p - e_lo)
+    widen = (width / 2.0 * abs(math.tan(math.radians(pose.roll_deg)))
+             + (focal_px + width / 2.0) * math.tan(math.radians(tolerance_deg))
+             + HORIZON_SLACK_PX)
+    return top - widen, bottom + widen
+
+
 def camera_detector_config(*, width: int, height: int, focal_px: float, mark_radius_mm: float,
                            max_range_mm: float | None, horizon_tolerance_deg: float | None,
                            horizon_row: float | None = None,
                            tint_limit: float | None = None,
                            min_chroma_contrast: float = DetectorConfig.min_chroma_contrast,
                            max_readings: int = DetectorConfig.max_readings,
+                           pose: CameraPose | None = None,
                            ) -> DetectorConfig:
     """The detector config for a ``width`` × ``height`` camera of focal length ``focal_px``
-    (``horizon_row``: the principal point's row; default the image centre's; ``tint_limit``,
-    ``min_chroma_contrast``, ``max_readings``: :class:`DetectorConfig`'s)."""
+    (``horizon_row``: the principal point's row; default the image centre's; ``pose``: the
+    camera's, default level at the marks' height; ``tint_limit``, ``min_chroma_contrast``,
+    ``max_readings``: :class:`DetectorConfig`'s)."""
     row, tolerance = None, DetectorConfig.horizon_tolerance_px
     if horizon_tolerance_deg is not None:
-        t = math.tan(math.radians(horizon_tolerance_deg))
-        row = (height - 1) / 2.0 if horizon_row is None else horizon_row
-        tolerance = (focal_px + width / 2.0) * t + HORIZON_SLACK_PX
+        centre = (height - 1) / 2.0 if horizon_row is None else horizon_row
+        lo, hi = horizon_band(pose or CameraPose(), width=width, focal_px=focal_px,
+                              centre_row=centre, tolerance_deg=horizon_tolerance_deg)
+        row, tolerance = 0.5 * (lo + hi), 0.5 * (hi - lo)
     if max_range_mm is None:
         return DetectorConfig(horizon_row=row, horizon_tolerance_px=tolerance,
                               tint_limit=tint_limit, min_chroma_contrast=min_chroma_contrast,
@@ -73,8 +121,10 @@ class CameraDetector:
                  horizon_tolerance_deg: float | None, horizon_row: float | None = None,
                  tint_limit: float | None = None,
                  min_chroma_contrast: float = DetectorConfig.min_chroma_contrast,
-                 max_readings: int = DetectorConfig.max_readings) -> None:
+                 max_readings: int = DetectorConfig.max_readings,
+                 pose: CameraPose | None = None) -> None:
         self.palette = palette
+        self.pose = pose
         self._tint_limit = tint_limit
         self._min_chroma_contrast = min_chroma_contrast
         self._max_readings = max_readings
@@ -96,7 +146,7 @@ class CameraDetector:
                    horizon_tolerance_deg=cam.detect.horizon_tolerance_deg,
                    horizon_row=horizon_row, tint_limit=cam.detect.tint_limit,
                    min_chroma_contrast=cam.detect.min_chroma_contrast,
-                   max_readings=cam.detect.max_readings)
+                   max_readings=cam.detect.max_readings, pose=CameraPose.of_mission(mission))
 
     def config_for(self, width: int, height: int) -> DetectorConfig:
         """The config frames of ``width`` × ``height`` are searched with."""
@@ -112,7 +162,8 @@ class CameraDetector:
                 mark_radius_mm=self._mark_radius_mm, max_range_mm=self._max_range_mm,
                 horizon_tolerance_deg=self._tolerance_deg, tint_limit=self._tint_limit,
                 min_chroma_contrast=self._min_chroma_contrast, max_readings=self._max_readings,
-                horizon_row=None if row is None else (row + 0.5) * height / h0 - 0.5)
+                horizon_row=None if row is None else (row + 0.5) * height / h0 - 0.5,
+                pose=self.pose)
             detector = self._detectors[(width, height)] = Detector(self.palette, config)
         return detector
 

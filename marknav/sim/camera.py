@@ -140,6 +140,28 @@ def project_marks(world: World, pose: Pose, config: CameraConfig = CameraConfig(
     return MarkGeometry(world).project(pose, config)
 
 
+def tilt_homography(config: CameraConfig, *, pitch_deg: float,
+                    roll_deg: float) -> FloatArray | None:
+    """The image map of a camera turned by ``pitch_deg`` (up) and then ``roll_deg`` (about its
+    optical axis) from level: H = K·R·K⁻¹ (a rotation about the centre of projection maps the
+    whole image by a homography; Hartley & Zisserman, 2nd ed., §8.4.2). Camera coordinates x
+    right, y down, z forward; a level point ahead goes to the row cy + f·tan(pitch). ``None``
+    for a level camera."""
+    if pitch_deg == 0.0 and roll_deg == 0.0:
+        return None
+    p, r = math.radians(pitch_deg), math.radians(roll_deg)
+    pitch = np.array([[1.0, 0.0, 0.0],
+                      [0.0, math.cos(p), math.sin(p)],
+                      [0.0, -math.sin(p), math.cos(p)]])
+    roll = np.array([[math.cos(r), -math.sin(r), 0.0],
+                     [math.sin(r), math.cos(r), 0.0],
+                     [0.0, 0.0, 1.0]])
+    k = np.array([[config.focal_px, 0.0, config.cx], [0.0, config.focal_px, config.cy],
+                  [0.0, 0.0, 1.0]])
+    h = k @ roll @ pitch @ np.linalg.inv(k)
+    return np.asarray(h / h[2, 2], dtype=np.float64)
+
+
 # --- background -------------------------------------------------------------------------------
 
 
@@ -319,6 +341,8 @@ class Renderer:
                 cv2.GaussianBlur(self._pan, self._ksize, self._blur), dtype=np.uint8)
         sigma = world.conditions.noise_sigma
         self._noise = _noise_tiles(world.background.seed, sigma, config) if sigma > 0 else None
+        self._tilt = tilt_homography(config, pitch_deg=cond.camera_pitch_deg,
+                                     roll_deg=cond.camera_roll_deg)
 
     @property
     def _ksize(self) -> tuple[int, int]:
@@ -380,7 +404,7 @@ class Renderer:
     def render(self, pose: Pose, rng: np.random.Generator | None = None) -> Image:
         """One BGR frame from ``pose``. ``rng`` picks the noise; ``None`` renders noise-free."""
         if (self._noise is not None and rng is not None and self._warp is None
-                and not self._poles):
+                and not self._poles and self._tilt is None):
             return self._render_noisy(pose, rng, self._noise)
         cfg = self._canvas
         h, w = cfg.height, cfg.width
@@ -398,6 +422,10 @@ class Renderer:
         if self._warp is not None:
             img = self._warp.apply(img)
             h, w = self.config.height, self.config.width
+        if self._tilt is not None:
+            img = np.asarray(cv2.warpPerspective(img, self._tilt, (w, h), flags=cv2.INTER_LINEAR,
+                                                 borderMode=cv2.BORDER_REPLICATE),
+                             dtype=np.uint8)
         if self._noise is not None and rng is not None:
             pos, neg = self._noise
             oy = int(rng.integers(0, h + 1))

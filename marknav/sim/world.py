@@ -242,6 +242,12 @@ class Conditions(_Strict):
     - ``processing_s``: the time from a frame's arrival to the wheel command it leads to
       (detection, estimation, the tree). The simulated tick takes no simulated time, so the
       frame a tick processes is one captured ``camera_latency_s + processing_s`` before it.
+    - ``camera_pitch_deg``, ``camera_roll_deg``: the camera's tilt above the horizontal
+      (positive: looking up) and its turn about its optical axis (positive: the image turns
+      clockwise), degrees. A mark at camera height then lies f·tan(pitch) rows below the
+      principal point.
+    - ``mark_height_offset_mm``: how far the marks' centres stand above the camera (negative:
+      below), mm; 0 is the paper's set-up, marks at camera height.
     - Room (:mod:`marknav.sim.scenery`): ``floor`` (``plain``, ``wood``, ``carpet``) at
       ``floor_saturation``; ``wall`` (``plain`` or ``photo``); ``wall_hue`` (a hue that dominates
       the scene, or none); ``occluders`` (thin poles in front of the marks); ``distractors``
@@ -259,6 +265,10 @@ class Conditions(_Strict):
     latency_frames: Annotated[int, Field(ge=0, le=30)] = 0
     camera_latency_s: Annotated[float, Field(ge=0.0, le=2.0, allow_inf_nan=False)] = 0.0
     processing_s: Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False)] = 0.0
+    camera_pitch_deg: Annotated[float, Field(ge=-30.0, le=30.0, allow_inf_nan=False)] = 0.0
+    camera_roll_deg: Annotated[float, Field(ge=-30.0, le=30.0, allow_inf_nan=False)] = 0.0
+    mark_height_offset_mm: Annotated[float, Field(ge=-1000.0, le=1000.0,
+                                                  allow_inf_nan=False)] = 0.0
     floor: Literal["plain", "wood", "carpet"] = "plain"
     floor_saturation: Annotated[float, Field(ge=0.0, le=255.0, allow_inf_nan=False)] = 120.0
     wall: Literal["plain", "photo"] = "plain"
