@@ -274,6 +274,8 @@ class Perception(PerceptionBase):
         self.latencies: list[float] = []
         #: Frames older than the pose history: placed with its oldest pose.
         self.frames_beyond_history = 0
+        #: What learning the camera's pose said (see CameraDetector.learn).
+        self.horizon_messages: list[str] = []
 
     def configure(self, **kwargs: Any) -> None:
         camera = kwargs.get("camera")
@@ -350,6 +352,8 @@ class Perception(PerceptionBase):
                 self.frames_beyond_history += 1
         cx = intr.cx if intr is not None else keys.image_centre(width)
         marks = tuple(self._to_seen(m, width, t, pose, cx) for m in found)
+        if getattr(self._detector, "learner", None) is not None:
+            found, marks = self._learn_horizon(found, marks, width, height)
         if calibrated is not None and sensitivity is not None:
             self._calibrate(calibrated, pose, sensitivity, marks)
         if self.range_learner is not None:
@@ -358,6 +362,25 @@ class Perception(PerceptionBase):
         info = keys.FrameInfo(index=frame.index, t=t, width=width, height=height,
                               marks=len(marks), range_sigma=sigma, latency_s=now - t)
         return Observation(frame=info, marks=marks, pose=pose)
+
+    def _learn_horizon(self, found: list[Mark], marks: tuple[keys.SeenMark, ...], width: int,
+                       height: int) -> tuple[list[Mark], tuple[keys.SeenMark, ...]]:
+        """While the camera's pose is learnt (no ``camera.pitch_deg``): every mark found feeds
+        the fit; only those in the band in use go on."""
+        detector = self._detector
+        message = detector.learn([(m.x, m.y, s.forward_mm) for m, s in zip(found, marks,
+                                                                            strict=True)],
+                                 width, height)
+        if message is not None:
+            if "too far off" in message:
+                log.warning("%s", message)
+            else:
+                log.info("%s", message)
+            self.horizon_messages.append(message)
+        keep = [i for i, m in enumerate(found) if detector.accepts(m.y, height)]
+        if len(keep) == len(found):
+            return found, marks
+        return [found[i] for i in keep], tuple(marks[i] for i in keep)
 
     def _wheel_calibratable(self, robot: object) -> TypeGuard[WheelCalibratable]:
         """``isinstance(robot, WheelCalibratable)``, asked once per robot (a protocol check

@@ -12,7 +12,11 @@ camera model (``camera.detect`` in the mission file).
   farthest from it at the nearest range a mark is used at (``navigation.clearance_mm``: passing
   it); roll moves the image edges by width/2·tan(roll) rows. ``horizon_tolerance_deg`` is the
   pose's uncertainty (f·tan t rows of pitch, width/2·tan t of roll), plus ``HORIZON_SLACK_PX``
-  for the centre's measurement. Without a pose: a level camera at the marks' height.
+  for the centre's measurement. Without a pitch (``camera.pitch_deg`` null) the pose is
+  learnt from the marks seen (:class:`CameraDetector` with ``learn=True``,
+  :mod:`marknav.vision.horizon_learning`): until a fit, the detector searches
+  ±:data:`LEARN_SPAN_DEG` and the marks it finds feed the fit, but only those in the level
+  band are used; then the band is the fitted pose's (never narrower than the level one's).
 - **White balance held to the room's light** (``tint_limit``): the grey-world correction's
   green–magenta part is limited; a room's lights differ along blue–amber, and a strong green or
   magenta cast in its greys is a painted wall or carpet (:attr:`DetectorConfig.tint_limit`).
@@ -26,15 +30,25 @@ their own detector, the focal length and principal point scaled to them.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 from marknav.missions.schema import ROBOT_TINT_LIMIT, Mission
 from marknav.vision.detect import Detector, DetectorConfig, Mark
 from marknav.vision.detect.geometry import U8Array
+from marknav.vision.horizon_learning import HorizonFit, HorizonLearner
 from marknav.vision.palette import Palette
 
 __all__ = ["HORIZON_SLACK_PX", "ROBOT_FLOOR_PX", "ROBOT_TINT_LIMIT", "CameraDetector",
            "CameraPose", "camera_detector_config", "horizon_band"]
+
+#: While the camera's pose is being learnt, the detector searches this far off level (deg): a
+#: camera mounted by hand is within a few degrees; 12° is 125 px at f = 590.
+LEARN_SPAN_DEG = 12.0
+#: A learnt pitch beyond this (deg) is too near the edge of what was searched to trust.
+TOO_FAR_OFF_DEG = LEARN_SPAN_DEG - 2.0
+#: Sightings between two fits of the learnt pose.
+REFIT_EVERY = 10
 
 #: Rows added to the horizon tolerance for the error of a measured centre.
 HORIZON_SLACK_PX = 4.0
@@ -114,7 +128,13 @@ def camera_detector_config(*, width: int, height: int, focal_px: float, mark_rad
 
 
 class CameraDetector:
-    """A :class:`Detector` configured from a mission's camera, one per frame size."""
+    """A :class:`Detector` configured from a mission's camera, one per frame size.
+
+    With ``learn=True`` (the mission gives no ``camera.pitch_deg``) it learns the camera's pose
+    from the marks seen (see the module docstring): :meth:`accepts` says which of a frame's
+    marks lie in the band in use, :meth:`learn` takes every mark found with its distance and
+    returns a message when the learnt pose changes (logged by perception); :attr:`learnt` is
+    the latest fit."""
 
     def __init__(self, palette: Palette, *, width: int, height: int, focal_px: float,
                  mark_radius_mm: float, max_range_mm: float | None,
@@ -122,7 +142,7 @@ class CameraDetector:
                  tint_limit: float | None = None,
                  min_chroma_contrast: float = DetectorConfig.min_chroma_contrast,
                  max_readings: int = DetectorConfig.max_readings,
-                 pose: CameraPose | None = None) -> None:
+                 pose: CameraPose | None = None, learn: bool = False) -> None:
         self.palette = palette
         self.pose = pose
         self._tint_limit = tint_limit
@@ -133,12 +153,80 @@ class CameraDetector:
         self._max_range_mm = max_range_mm
         self._tolerance_deg = horizon_tolerance_deg
         self._detectors: dict[tuple[int, int], Detector] = {}
+        self.learner: HorizonLearner | None = None
+        self.learnt: HorizonFit | None = None
+        self._accept: tuple[float, float] | None = None  # rows in use (camera's own size)
+        self._told: tuple[float, float, float] | None = None
+        if learn and horizon_tolerance_deg is not None:
+            cy = (height - 1) / 2.0 if horizon_row is None else horizon_row
+            self.learner = HorizonLearner(focal_px=focal_px, cx=(width - 1) / 2.0, cy=cy)
+            self._level_deg = horizon_tolerance_deg
+            self._accept = horizon_band(pose or CameraPose(), width=width, focal_px=focal_px,
+                                        centre_row=cy, tolerance_deg=horizon_tolerance_deg)
+            self._tolerance_deg = max(horizon_tolerance_deg, LEARN_SPAN_DEG)  # search wide
         # The camera's own size now, at set-up (tables, compiled loops), not in the first frame.
         self.detector_for(width, height)
 
+    def accepts(self, y_px: float, height: int) -> bool:
+        """Whether a mark centred on row ``y_px`` of a frame ``height`` rows high lies in the
+        band in use (always, unless the pose is being learnt)."""
+        if self._accept is None:
+            return True
+        k = height / self._camera[1]
+        lo, hi = self._accept
+        return (lo + 0.5) * k - 0.5 <= y_px <= (hi + 0.5) * k - 0.5
+
+    def learn(self, sightings: Sequence[tuple[float, float, float]], width: int,
+              height: int) -> str | None:
+        """Feed one frame's marks ``(x_px, y_px, forward_mm)``; refit every
+        :data:`REFIT_EVERY` sightings. Returns a message when the learnt pose moved the band
+        (or looks too far off to trust), else ``None``."""
+        learner = self.learner
+        if learner is None or not sightings:
+            return None
+        w0, h0, focal, _ = self._camera
+        k = w0 / width
+        before = learner.samples
+        for x, y, forward in sightings:
+            learner.add((x + 0.5) * k - 0.5, (y + 0.5) * h0 / height - 0.5, forward)
+        if learner.samples // REFIT_EVERY == before // REFIT_EVERY:
+            return None
+        fit = learner.fit()
+        if fit is None:
+            return None
+        self.learnt = fit
+        pitch = fit.pitch_deg(cy=learner.cy, focal_px=focal)
+        rise = fit.rise_mm(focal_px=focal) if fit.rise_fitted else 0.0
+        roll = fit.roll_deg()
+        near = self.pose.near_mm if self.pose is not None else CameraPose().near_mm
+        pose = CameraPose(pitch_deg=pitch, roll_deg=roll, rise_mm=(rise, rise), near_mm=near)
+        # The band: the fitted pose's, its residual's 3σ as pose uncertainty, never narrower
+        # than the level band's.
+        spread = math.degrees(math.atan2(3.0 * fit.rms_px, focal))
+        self.pose, self._tolerance_deg = pose, max(self._level_deg, spread)
+        self._accept = horizon_band(pose, width=w0, focal_px=focal, centre_row=learner.cy,
+                                    tolerance_deg=self._tolerance_deg)
+        self._detectors.clear()
+        told = self._told
+        self._told = (pitch, rise, roll)
+        if abs(pitch) > TOO_FAR_OFF_DEG:
+            return (f"the camera looks too far off level: pitched {pitch:+.1f}° (from "
+                    f"{fit.samples} sightings), near the ±{LEARN_SPAN_DEG:g}° searched while "
+                    "learning; level the camera or give camera.pitch_deg")
+        if told is None or abs(told[0] - pitch) > 1.0 or abs(told[1] - rise) > 40.0:
+            return (f"camera pose learnt from {fit.samples} sightings: pitch {pitch:+.1f}°, "
+                    f"roll {roll:+.1f}°, the marks' centres {rise:+.0f} mm above the camera"
+                    + ("" if fit.rise_fitted else " (not yet separable from the pitch)")
+                    + f"; residual {fit.rms_px:.1f} px"
+                    + ("; give camera.pitch_deg (and camera.height_mm, marks.height_mm) to "
+                       "start from it" if abs(pitch) > self._level_deg or abs(rise) > 50.0
+                       else ""))
+        return None
+
     @classmethod
     def for_mission(cls, mission: Mission, horizon_row: float | None = None) -> CameraDetector:
-        """The mission's detector (``horizon_row``: the principal point's row, if known)."""
+        """The mission's detector (``horizon_row``: the principal point's row, if known); it
+        learns the camera's pose when the mission gives no ``camera.pitch_deg``."""
         cam = mission.camera
         return cls(mission.palette(), width=cam.width, height=cam.height,
                    focal_px=cam.focal_px, mark_radius_mm=mission.marks.radius_mm,
@@ -146,7 +234,8 @@ class CameraDetector:
                    horizon_tolerance_deg=cam.detect.horizon_tolerance_deg,
                    horizon_row=horizon_row, tint_limit=cam.detect.tint_limit,
                    min_chroma_contrast=cam.detect.min_chroma_contrast,
-                   max_readings=cam.detect.max_readings, pose=CameraPose.of_mission(mission))
+                   max_readings=cam.detect.max_readings, pose=CameraPose.of_mission(mission),
+                   learn=cam.pitch_deg is None)
 
     def config_for(self, width: int, height: int) -> DetectorConfig:
         """The config frames of ``width`` × ``height`` are searched with."""
