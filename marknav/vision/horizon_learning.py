@@ -8,8 +8,9 @@ above it, sees a mark d ahead at image column u on the row
 
 with h = c_y + f·tan p (the horizon row: a far mark's), k = f·Δh and s = tan r. Each sighting
 (u, v, d) is one linear equation in (h, k, s); :class:`HorizonLearner` fits them by least
-squares, drops sightings more than :data:`OUTLIER_SIGMAS` robust σ off and fits again (a false
-detection is not a mark at the marks' height). While the sightings' 1/d spread less than
+squares, starting from the sightings within :data:`OUTLIER_SIGMAS` robust σ of the median row
+and then dropping those that far off each fit (a false detection is not a mark at the marks'
+height). While the sightings' 1/d spread less than
 ``min_inverse_spread_per_m`` (a robot turning on the spot sees its marks at one range), the
 rise is not separable from the pitch: k is held at 0 and h absorbs it. Pure numbers: no I/O.
 """
@@ -88,9 +89,11 @@ class HorizonLearner:
         a = np.asarray(self._rows, dtype=float)
         du, v, inv = a[:, 0], a[:, 1], a[:, 2]
         rise = bool((inv.max() - inv.min()) * 1000.0 >= self.min_inverse_spread_per_m)
-        keep = np.ones(len(v), dtype=bool)
+        # Start from the median row (robust to clutter), then refit on the sightings near it.
+        spread = 1.4826 * float(np.median(np.abs(v - np.median(v)))) + 0.5
+        keep = np.abs(v - np.median(v)) <= OUTLIER_SIGMAS * spread
         coef = np.zeros(3)
-        for _ in range(2):
+        for _ in range(3):
             cols = [np.ones(keep.sum()), du[keep]] + ([-inv[keep]] if rise else [])
             sol, *_ = np.linalg.lstsq(np.stack(cols, axis=1), v[keep], rcond=None)
             coef = np.array([sol[0], sol[2] if rise else 0.0, sol[1]])  # h, k, s
