@@ -328,7 +328,7 @@ class Perception(PerceptionBase):
             pose_now, sensitivity = calibrated.odometry_snapshot()
         else:
             pose_now, sensitivity = robot.pose(), None
-        self.poses.add(now, pose_now)
+        self.poses.add(now, pose_now, sensitivity or ())
         frame = self._camera.read()
         if frame is None or frame.index == self._last_index:
             return None
@@ -342,18 +342,19 @@ class Perception(PerceptionBase):
         intr = self._frame_intrinsics(width, height)
         if intr is not None and intr.distorted:
             found = [undistort_mark(m, intr) for m in found]
-        # The odometry pose at capture time. (The wheel-scale sensitivity stays the tick's: it
-        # restarts from zero at each re-anchoring, and it changes little within a latency.)
+        # The odometry pose at capture time, and its sensitivity to the wheel scale then.
         at = self.poses.at(t)
         pose = pose_now
         if at is not None:
             pose = at.pose
+            if sensitivity is not None and len(at.extra) == 3:
+                sensitivity = (at.extra[0], at.extra[1], at.extra[2])
             if at.clamped_s > 1e-6 and t < now:
                 self.frames_beyond_history += 1
         cx = intr.cx if intr is not None else keys.image_centre(width)
         marks = tuple(self._to_seen(m, width, t, pose, cx) for m in found)
         if getattr(self._detector, "learner", None) is not None:
-            found, marks = self._learn_horizon(found, marks, width, height)
+            self._learn_horizon(found, marks, width, height, t, pose, cx)
         if calibrated is not None and sensitivity is not None:
             self._calibrate(calibrated, pose, sensitivity, marks)
         if self.range_learner is not None:
@@ -364,23 +365,23 @@ class Perception(PerceptionBase):
         return Observation(frame=info, marks=marks, pose=pose)
 
     def _learn_horizon(self, found: list[Mark], marks: tuple[keys.SeenMark, ...], width: int,
-                       height: int) -> tuple[list[Mark], tuple[keys.SeenMark, ...]]:
-        """While the camera's pose is learnt (no ``camera.pitch_deg``): every mark found feeds
-        the fit; only those in the band in use go on."""
+                       height: int, t: float, pose: Pose, cx: float) -> None:
+        """While the camera's pose is learnt (no ``camera.pitch_deg``): the marks used and
+        those the detector held back (outside the band in use) feed the fit."""
         detector = self._detector
-        message = detector.learn([(m.x, m.y, s.forward_mm) for m, s in zip(found, marks,
-                                                                            strict=True)],
-                                 width, height)
+        held = list(getattr(detector, "held_back", ()))
+        intr = self._frame_intrinsics(width, height)
+        if intr is not None and intr.distorted:
+            held = [undistort_mark(m, intr) for m in held]
+        sightings = [(m.x, m.y, s.forward_mm) for m, s in zip(found, marks, strict=True)]
+        sightings += [(m.x, m.y, self._to_seen(m, width, t, pose, cx).forward_mm) for m in held]
+        message = detector.learn(sightings, width, height)
         if message is not None:
             if "too far off" in message:
                 log.warning("%s", message)
             else:
                 log.info("%s", message)
             self.horizon_messages.append(message)
-        keep = [i for i, m in enumerate(found) if detector.accepts(m.y, height)]
-        if len(keep) == len(found):
-            return found, marks
-        return [found[i] for i in keep], tuple(marks[i] for i in keep)
 
     def _wheel_calibratable(self, robot: object) -> TypeGuard[WheelCalibratable]:
         """``isinstance(robot, WheelCalibratable)``, asked once per robot (a protocol check
@@ -399,13 +400,17 @@ class Perception(PerceptionBase):
             # a new window: its sensitivities count from here (they stay small and linear)
             robot.anchor_odometry()
             sensitivity = (0.0, 0.0, 0.0)
+            # From the new anchor the wheel scale acts on motion after it only: the poses
+            # already driven do not depend on it.
+            self.poses.set_extra((0.0, 0.0, 0.0))
         for m in marks:
             calibrator.add(m.colour, (pose.x, pose.y), m.world, sensitivity)
         step = calibrator.correction()
         if step is None:
             return
         before = robot.right_wheel_scale
-        robot.scale_right_wheel(step.factor)
+        robot.scale_right_wheel(step.factor)  # re-anchors: as above
+        self.poses.set_extra((0.0, 0.0, 0.0))
         self.wheel_calibrations.append(step)
         fit = step.fit
         log.info("odometry: right wheel scale %.4f -> %.4f ± %.4f (fit %+.4f ± %.4f from %d "

@@ -134,7 +134,8 @@ class CameraDetector:
     from the marks seen (see the module docstring): :meth:`accepts` says which of a frame's
     marks lie in the band in use, :meth:`learn` takes every mark found with its distance and
     returns a message when the learnt pose changes (logged by perception); :attr:`learnt` is
-    the latest fit."""
+    the latest fit. :meth:`detect` returns the marks in the band in use, and holds the others
+    back for learning (:attr:`held_back`)."""
 
     def __init__(self, palette: Palette, *, width: int, height: int, focal_px: float,
                  mark_radius_mm: float, max_range_mm: float | None,
@@ -157,6 +158,8 @@ class CameraDetector:
         self.learnt: HorizonFit | None = None
         self._accept: tuple[float, float] | None = None  # rows in use (camera's own size)
         self._told: tuple[float, float, float] | None = None
+        #: The last frame's marks outside the band in use (while learning).
+        self.held_back: list[Mark] = []
         if learn and horizon_tolerance_deg is not None:
             cy = (height - 1) / 2.0 if horizon_row is None else horizon_row
             self.learner = HorizonLearner(focal_px=focal_px, cx=(width - 1) / 2.0, cy=cy)
@@ -257,6 +260,14 @@ class CameraDetector:
         return detector
 
     def detect(self, image: U8Array) -> list[Mark]:
-        """The marks in one BGR frame (see :meth:`Detector.detect`)."""
+        """The marks in one BGR frame (see :meth:`Detector.detect`). While the pose is being
+        learnt, those found outside the band in use are held back (:attr:`held_back`: for
+        :meth:`learn`, not for steering)."""
         height, width = image.shape[:2]
-        return self.detector_for(width, height).detect(image)
+        found = self.detector_for(width, height).detect(image)
+        if self._accept is None or not found:
+            self.held_back = []
+            return found
+        keep = [m for m in found if self.accepts(m.y, height)]
+        self.held_back = [m for m in found if not self.accepts(m.y, height)]
+        return keep

@@ -62,6 +62,11 @@ class PoseHistory:
         self._t.clear()
         self._samples.clear()
 
+    def set_extra(self, extra: tuple[float, ...]) -> None:
+        """Give every sample the same ``extra`` (e.g. odometry re-anchored: the sensitivities of
+        the poses already driven become zero)."""
+        self._samples = deque((pose, extra) for pose, _ in self._samples)
+
     def add(self, t: float, pose: Pose, extra: tuple[float, ...] = ()) -> None:
         """Record ``pose`` at ``t``. A time not after the newest replaces the newest sample (the
         same tick asked twice); samples older than ``span_s`` before ``t`` are dropped."""
