@@ -24,10 +24,12 @@ camera (``/marknav/known``) — the heading turns to the tangent of that circle 
 (:func:`keep_clear`). A route that doubles back past a mark (a figure eight) then skirts it
 instead of grazing it, and a far target is not approached through a nearer mark.
 
-Between frames (the target's sighting is older than the latest frame) the mark's world estimate
-and the odometry pose stand in for the pixels. SUCCESS when the estimated distance along the
-heading (the paper's d_yp) is at most ``bypass_distance_mm``; FAILURE when the target has not been
-seen for ``lost_after_s``.
+The pixels steer only while they show the present: a sighting from a frame processed in the tick
+it was captured (no latency). A late frame shows where the mark was relative to where the robot
+was at capture time; then, as between frames, the mark's world estimate (placed with the pose at
+capture time) and the odometry pose now give its distance and bearing. SUCCESS when the
+estimated distance along the heading (the paper's d_yp) is at most ``bypass_distance_mm``;
+FAILURE when the frames of the last ``lost_after_s`` (by capture time) have not shown the target.
 """
 
 from __future__ import annotations
@@ -44,6 +46,11 @@ from marknav.planning.kinematics import WheelSpeeds, scale_to_limit, to_robot_fr
 
 __all__ = ["THRESHOLD_SPEED_FRACTION", "UNSETTLED_THRESHOLD_FLOOR", "ApproachWhileCentring",
            "centring_command", "keep_clear", "unsettled_factor"]
+
+#: A sighting at most this old (s) is the present: its pixels steer (a tick takes no time in
+#: the simulator; on a real robot a frame is always some milliseconds old, and then the
+#: odometry since capture, not the pixels, says where the mark is now).
+FRESH_S = 1e-3
 
 #: A passed or remembered mark this close to the target's estimate is the target itself.
 SAME_MARK_MM = 400.0
@@ -215,11 +222,12 @@ class ApproachWhileCentring(DrivingBehaviour):
         seen = target.sighting
         if seen is None or target.world is None:
             return self.fail(f"{target.label} not seen")
-        age = self.now() - seen.t
+        frame: keys.FrameInfo | None = self.read(keys.FRAME)
+        now = self.now()
+        age = keys.unseen_s(seen, frame, now)
         if age > s["lost_after_s"]:
             return self.fail(f"lost {target.label}: unseen for {age:.2f} s")
-        frame: keys.FrameInfo | None = self.read(keys.FRAME)
-        if frame is not None and seen.t >= frame.t:
+        if frame is not None and seen.t >= frame.t and now - seen.t <= FRESH_S:
             forward = seen.forward_mm
             angle = math.atan2(-seen.pixel_error, s["focal_px"])
         else:  # between frames: dead-reckon the mark from odometry

@@ -16,16 +16,23 @@ course. A sighting whose disc reaches the image's side edge is not used
 re-plan that is not feasible (:class:`~marknav.planning.bezier.PlanningError`) is skipped and
 the current plan kept.
 
-SUCCESS when the mark is beside or behind the robot along the plan's course (or the tracker
-reached the end of the plan) on the required side: the waypoint is then recorded in
-``/marknav/passed``. FAILURE when the bypass cannot be planned, when the mark ends up on the wrong
-side, or when the bypass takes more than ``3 × length / speed + 5 s`` (stuck). Every plan is
+SUCCESS when the mark is beside or behind the robot along the plan's course (or the tracker reached
+the end of the plan) on the required side: the waypoint is then recorded in ``/marknav/passed``,
+with the robot's own verdict on it (:func:`verify_pass`): the pass is *doubtful* — recorded with the
+reason, reported as ``doubtful``, never silently as passed — when what the robot saw disagrees with
+what it drove: a sighting of the mark (each placed with the odometry pose at its capture time) lies
+on the wrong side of the driven path or on it, the mark left the view across the wrong side of the
+image, or the mark was not seen at all since the bypass began (the pass then rests on an estimate
+older than the bypass). FAILURE when the bypass cannot be planned, when the mark ends up on the
+wrong side, or when the bypass takes more than ``3 × length / speed + 5 s`` (stuck). Every plan is
 appended to ``/marknav/plans`` for the run plot. The wheels are stopped when the bypass ends.
 """
 
 from __future__ import annotations
 
+import logging
 import math
+from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -41,7 +48,9 @@ from marknav.planning.kinematics import Pose
 from marknav.planning.tracking import PurePursuit
 
 __all__ = ["EXIT_MARGIN_MM", "RECOVERY_WIDENING_MM", "BezierBypass", "behind_of",
-           "cut_by_image_side", "lateral_of"]
+           "cut_by_image_side", "lateral_of", "verify_pass"]
+
+log = logging.getLogger(__name__)
 
 #: Extra run-out beyond robot radius + mark radius before a bypass counts as done (mm).
 EXIT_MARGIN_MM = 60.0
@@ -61,6 +70,54 @@ def behind_of(pose: Pose, mark_xy: tuple[float, float], course: float) -> float:
             + (pose.y - mark_xy[1]) * math.sin(course))
 
 
+def _abeam(path: Sequence[Pose], mark_xy: tuple[float, float], course: float) -> Pose:
+    """The pose of ``path`` where the mark was most nearly abeam (along ``course``)."""
+    return min(path, key=lambda p: abs(behind_of(p, mark_xy, course)))
+
+
+def verify_pass(path: Sequence[Pose], sightings: Sequence[keys.SeenMark], *, course: float,
+                side: keys.Side, mark_radius_mm: float, since_t: float) -> str | None:
+    """Whether the robot's own evidence confirms a pass: ``None`` if it does, else why not.
+
+    ``path``: the odometry poses the bypass drove (in order); ``sightings``: the target's
+    sightings from the bypass's start on (each placed with the odometry pose at its capture
+    time); ``since_t``: the capture time of the frame the bypass was planned from; sightings
+    captured after it are the bypass's own. Doubts, in order:
+
+    - no sighting captured after ``since_t``: the pass rests on the estimate it was planned
+      from alone;
+    - a sighting (whole in the image: a cut disc's range is of a part) that places the mark's
+      centre less than ``mark_radius_mm`` from the driven path on the required side, or beyond
+      it on the other: by that sighting the robot passed on the wrong side or over the mark;
+    - the last sighting is a disc cut by the image's side edge on the wrong side: a mark
+      passed on its left leaves the view across the image's right edge, and vice versa.
+
+    Pure function."""
+    if not path:
+        return "no path driven"
+    recent = [s for s in sightings if s.t > since_t]
+    if not recent:
+        return "not seen since the bypass began"
+    sigma = -1.0 if side == "left" else 1.0  # the mark's side of the robot (left positive)
+    for s in recent:
+        if keys.cut_by_image_side(s):
+            continue
+        at = _abeam(path, s.world, course)
+        lateral = sigma * lateral_of(at, s.world, course)
+        if lateral < mark_radius_mm:
+            where = "on the wrong side of" if lateral < 0.0 else "on"
+            return (f"a sighting at t={s.t:.2f} s ({s.range_mm:.0f} mm away) puts the mark "
+                    f"{where} the driven path ({lateral:+.0f} mm on its pass side)")
+    last = recent[-1]
+    if keys.cut_by_image_side(last):
+        right_half = last.pixel_error > 0.0
+        if right_half != (side == "left"):
+            return (f"it left the view across the image's {'right' if right_half else 'left'} "
+                    f"edge (a pass on its {side} takes it out on the "
+                    f"{'right' if side == 'left' else 'left'})")
+    return None
+
+
 class BezierBypass(DrivingBehaviour):
     """Plan and track the bypass of the current target; record the waypoint as passed.
 
@@ -75,7 +132,8 @@ class BezierBypass(DrivingBehaviour):
     Setup: ``robot``, ``clock``, ``mission`` (also wheel base, speed limit, mark radius).
     """
 
-    READS: ClassVar[tuple[str, ...]] = (keys.TARGET, keys.PASSED, keys.PLANS, keys.RECOVERY)
+    READS: ClassVar[tuple[str, ...]] = (keys.TARGET, keys.PASSED, keys.PLANS, keys.RECOVERY,
+                                        keys.FRAME)
     WRITES: ClassVar[tuple[str, ...]] = (keys.DRIVER, keys.TARGET, keys.PASSED, keys.PLANS)
 
     def __init__(
@@ -115,6 +173,11 @@ class BezierBypass(DrivingBehaviour):
         self._last_sighting_t = -math.inf
         self._t0 = 0.0
         self._deadline = math.inf
+        #: The evidence of this bypass: the odometry poses driven and the target's sightings.
+        self.path: list[Pose] = []
+        self.sightings: list[keys.SeenMark] = []
+        self._evidence_t = -math.inf
+        self._since_t = 0.0
 
     def configure(self, **kwargs: Any) -> None:
         m = self.mission
@@ -153,7 +216,13 @@ class BezierBypass(DrivingBehaviour):
         self.replans = 0
         self._t0 = self.now()
         self._deadline = math.inf
+        self.path = []
+        self.sightings = []
+        self._evidence_t = -math.inf
         target = self.target()
+        frame: keys.FrameInfo | None = self.read(keys.FRAME)
+        # A sighting counts as made during the bypass from the newest frame's capture on.
+        self._since_t = frame.t if frame is not None else self._t0
         self._target = target
         if target is None:
             self._error = "no target selected"
@@ -182,6 +251,7 @@ class BezierBypass(DrivingBehaviour):
         pose = self.robot.pose()
         if self._already_passed:
             return self._succeed(target, target.world or (math.nan, math.nan), pose)
+        self._gather(pose)
         assert self.plan is not None and self._tracker is not None
         self._maybe_replan(pose)
         plan = self.plan
@@ -252,6 +322,18 @@ class BezierBypass(DrivingBehaviour):
                                  side=self._target.side, t=self.now(), reason=reason, plan=plan)
         self.write(keys.PLANS, (*plans, record))
 
+    def _gather(self, pose: Pose) -> None:
+        """Keep this tick's evidence: the pose driven, a new sighting of the target."""
+        self.path.append(pose)
+        target = self.target()
+        if (target is None or self._target is None
+                or target.waypoint_id != self._target.waypoint_id):
+            return
+        seen = target.sighting
+        if seen is not None and seen.t > self._evidence_t:
+            self._evidence_t = seen.t
+            self.sightings.append(seen)
+
     def _maybe_replan(self, pose: Pose) -> None:
         assert self.plan is not None and self._target is not None
         target = self.target()
@@ -291,14 +373,23 @@ class BezierBypass(DrivingBehaviour):
 
     def _succeed(self, target: keys.Target, mark: tuple[float, float], pose: Pose) -> Status:
         passed: tuple[keys.PassedWaypoint, ...] = self.read(keys.PASSED, ())
+        course = self.plan.course if self.plan is not None else pose.theta
+        doubt = None
+        if not self._already_passed:  # resumed beside the mark: nothing seen or driven here
+            doubt = verify_pass(self.path, self.sightings, course=course, side=target.side,
+                                mark_radius_mm=self.settings["mark_radius_mm"],
+                                since_t=self._since_t)
         if not any(p.waypoint_id == target.waypoint_id for p in passed):
             record = keys.PassedWaypoint(waypoint=target.waypoint,
                                          waypoint_id=target.waypoint_id, colour=target.colour,
                                          side=target.side, t=self.now(), mark_x=mark[0],
-                                         mark_y=mark[1])
+                                         mark_y=mark[1], doubt=doubt)
             self.write(keys.PASSED, (*passed, record))
-        course = self.plan.course if self.plan is not None else pose.theta
+            if doubt is not None:
+                log.warning("%s: passed on its %s by odometry, but doubtful: %s",
+                            target.label, target.side, doubt)
         gap = abs(lateral_of(pose, mark, course))
         self.feedback_message = (f"passed {target.label} on its {target.side} "
-                                 f"({gap:.0f} mm beside it)")
+                                 f"({gap:.0f} mm beside it)"
+                                 + (f"; doubtful: {doubt}" if doubt is not None else ""))
         return Status.SUCCESS

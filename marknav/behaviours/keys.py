@@ -62,6 +62,7 @@ __all__ = [
     "read",
     "reset",
     "snapshot",
+    "unseen_s",
 ]
 
 Side = Literal["left", "right"]
@@ -86,10 +87,12 @@ ALL_KEYS: tuple[str, ...] = (FRAME, MARKS, LAST_SEEN, TARGET, PASSED, PLANS, DRI
 class SeenMark:
     """One mark seen in one frame: robot frame (at the time of the tick), world frame, pixels.
 
-    ``forward_mm``/``left_mm`` are the estimate relative to the robot (eqs. 19/2 and 21),
-    ``world_x``/``world_y`` the same point placed with the robot's odometry pose. ``x_px`` is the
-    image column of the mark's centre and ``radius_px`` its semi-major axis in a frame
-    ``image_width`` pixels wide; ``t`` is the mission-clock time the frame was processed.
+    ``forward_mm``/``left_mm`` are the estimate relative to the robot *when the frame was
+    captured* (eqs. 19/2 and 21), ``world_x``/``world_y`` the same point placed with the robot's
+    odometry pose at that time. ``x_px`` is the image column of the mark's centre and
+    ``radius_px`` its semi-major axis in a frame ``image_width`` pixels wide; ``t`` is the
+    frame's capture time (mission clock). Where the robot is now, the mark is at
+    ``to_robot_frame(pose_now, world)``, not at ``forward_mm``/``left_mm``.
 
     Made for every mark of every frame: the constructor fills the instance's dict in one step
     (a frozen dataclass's own ``__init__`` sets each field through ``object.__setattr__``,
@@ -150,6 +153,15 @@ def centre_outside_image(seen: SeenMark) -> bool:
     return seen.x_px < 0.0 or seen.x_px > seen.image_width - 1.0
 
 
+def unseen_s(seen: SeenMark, frame: FrameInfo | None, now: float) -> float:
+    """How long the camera has been looking without seeing ``seen``'s mark again: from its
+    capture time to the newest frame's (``now`` when no frame was processed yet). Capture
+    times on both sides, so a camera's latency does not count as the mark being out of view;
+    a camera that stops delivering is Perception's to judge."""
+    newest = frame.t if frame is not None else now
+    return max(0.0, newest - seen.t)
+
+
 def image_centre(width: int) -> float:
     """Column of the image centre for a row ``width`` pixels wide (pixel centres at integers)."""
     return 0.5 * (width - 1)
@@ -157,10 +169,11 @@ def image_centre(width: int) -> float:
 
 @dataclass(frozen=True, init=False)
 class FrameInfo:
-    """The latest frame perception processed: source index, mission-clock time it was processed,
-    size, number of marks found, and ``range_sigma``: while the range law is being learnt
+    """The latest frame perception processed: source index, its capture time (mission clock),
+    size, number of marks found, ``range_sigma``: while the range law is being learnt
     (``camera.learn_range``), the σ of its scale (of ln d, ≈ the relative error of a range); 0
-    when the law is fixed. (Made every frame: one-step constructor, as :class:`SeenMark`'s.)"""
+    when the law is fixed; and ``latency_s``: the frame's age when it was processed (capture
+    to the tick). (Made every frame: one-step constructor, as :class:`SeenMark`'s.)"""
 
     index: int
     t: float
@@ -168,11 +181,12 @@ class FrameInfo:
     height: int
     marks: int
     range_sigma: float = 0.0
+    latency_s: float = 0.0
 
     def __init__(self, index: int, t: float, width: int, height: int, marks: int,
-                 range_sigma: float = 0.0) -> None:
+                 range_sigma: float = 0.0, latency_s: float = 0.0) -> None:
         self.__dict__.update(index=index, t=t, width=width, height=height, marks=marks,
-                             range_sigma=range_sigma)
+                             range_sigma=range_sigma, latency_s=latency_s)
 
 
 @dataclass(frozen=True, init=False)
@@ -249,7 +263,9 @@ class KnownMark:
 
 @dataclass(frozen=True)
 class PassedWaypoint:
-    """A waypoint whose mark was passed: when, on which side, where the robot believed it was."""
+    """A waypoint whose mark was passed: when, on which side, where the robot believed it was,
+    and ``doubt``: why the robot's own evidence (its sightings against the path it drove) does
+    not confirm the pass (``None``: it does)."""
 
     waypoint: int
     waypoint_id: str
@@ -258,6 +274,7 @@ class PassedWaypoint:
     t: float
     mark_x: float
     mark_y: float
+    doubt: str | None = None
 
 
 @dataclass(frozen=True)

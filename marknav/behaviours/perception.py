@@ -5,7 +5,12 @@ finds the marks (:class:`marknav.vision.detect.Detector`), estimates each one's 
 robot frame (:func:`marknav.vision.estimate.estimate_disc`: a disc standing at camera height,
 range by eq. 19 or eq. 2 from the ellipse's vertical semi-axis, bearing from its horizontal ends;
 camera assumed at the robot's centre, looking along its heading) and places it in the world
-frame with the robot's odometry pose. It writes ``/marknav/frame``, ``/marknav/marks``,
+frame with the robot's odometry pose *at the frame's capture time* (``Frame.t``: a short history
+of the poses of the last ticks, interpolated — :mod:`marknav.planning.pose_history`); a mark
+placed with the pose at processing time would sit v·τ too far along the robot's motion for a
+frame τ old. Sightings and the frame carry the capture time; ``FrameInfo.latency_s`` is the
+frame's age when processed (capture to this tick), which the status panel, the event log and
+the report show. It writes ``/marknav/frame``, ``/marknav/marks``,
 ``/marknav/last_seen`` and refreshes the target's sighting (:func:`~marknav.behaviours.target.
 associate`), so every later node of the tick sees one consistent picture.
 
@@ -58,6 +63,7 @@ from marknav.missions.camera import (
     mission_range_model,
 )
 from marknav.planning.kinematics import Pose, to_world_frame
+from marknav.planning.pose_history import PoseHistory
 from marknav.planning.wheel_ratio import WheelRatioCalibrator, WheelRatioStep
 from marknav.robot.robot import BUMPED, WheelCalibratable
 from marknav.vision.estimate import RangeModel, estimate_disc, upright_extents
@@ -263,6 +269,14 @@ class Perception(PerceptionBase):
         self.range_calibrations: list[RangeLawStep] = []
         self._range_times: list[float] = []
         self.range_source = "setup(range_model=...)"
+        #: The odometry poses of the last ticks, to place a frame's marks at its capture time.
+        self.poses = PoseHistory()
+        #: Every processed frame's age when processed (s): capture to the tick.
+        self.latencies: list[float] = []
+        #: Frames older than the pose history: placed with its oldest pose.
+        self.frames_beyond_history = 0
+        #: What learning the camera's pose said (see CameraDetector.learn).
+        self.horizon_messages: list[str] = []
 
     def configure(self, **kwargs: Any) -> None:
         camera = kwargs.get("camera")
@@ -306,35 +320,71 @@ class Perception(PerceptionBase):
         if self._detector is None or self._range_model is None or self._mark_radius_mm is None:
             raise SetupError(f"{self._owner} needs mission= in tree.setup() (palette, mark "
                              "radius, range model)")
+        now = self.now()
+        robot = self.robot
+        calibrated = (robot if self._calibrator is not None
+                      and self._wheel_calibratable(robot) else None)
+        if calibrated is not None:
+            pose_now, sensitivity = calibrated.odometry_snapshot()
+        else:
+            pose_now, sensitivity = robot.pose(), None
+        self.poses.add(now, pose_now, sensitivity or ())
         frame = self._camera.read()
         if frame is None or frame.index == self._last_index:
             return None
         self._last_index = frame.index
         height, width = frame.image.shape[:2]
-        t = self.now()
+        # The capture time (a source's clock a little ahead of the mission clock counts as now).
+        t = min(frame.t, now)
+        self.latencies.append(now - t)
         found: list[Mark] = list(self._detector.detect(frame.image))
         self.last_frame, self.last_detections = frame, tuple(found)
         intr = self._frame_intrinsics(width, height)
         if intr is not None and intr.distorted:
             found = [undistort_mark(m, intr) for m in found]
-        robot = self.robot
-        calibrated = (robot if self._calibrator is not None
-                      and self._wheel_calibratable(robot) else None)
-        if calibrated is not None:
-            pose, sensitivity = calibrated.odometry_snapshot()
-        else:
-            pose, sensitivity = robot.pose(), None
+        # The odometry pose at capture time, and its sensitivity to the wheel scale then.
+        at = self.poses.at(t)
+        pose = pose_now
+        if at is not None:
+            pose = at.pose
+            if sensitivity is not None and len(at.extra) == 3:
+                sensitivity = (at.extra[0], at.extra[1], at.extra[2])
+            if at.clamped_s > 1e-6 and t < now:
+                self.frames_beyond_history += 1
         cx = intr.cx if intr is not None else keys.image_centre(width)
         focal = self._focal_px(intr, width)
         marks = tuple(self._to_seen(m, width, t, pose, cx, focal) for m in found)
+        if getattr(self._detector, "learner", None) is not None:
+            self._learn_horizon(found, marks, width, height, t, pose, cx)
         if calibrated is not None and sensitivity is not None:
             self._calibrate(calibrated, pose, sensitivity, marks)
         if self.range_learner is not None:
             self._learn_range(pose, found, marks, width, height)
         sigma = self.range_learner.sigma[0] if self.range_learner is not None else 0.0
         info = keys.FrameInfo(index=frame.index, t=t, width=width, height=height,
-                              marks=len(marks), range_sigma=sigma)
+                              marks=len(marks), range_sigma=sigma, latency_s=now - t)
         return Observation(frame=info, marks=marks, pose=pose)
+
+    def _learn_horizon(self, found: list[Mark], marks: tuple[keys.SeenMark, ...], width: int,
+                       height: int, t: float, pose: Pose, cx: float) -> None:
+        """While the camera's pose is learnt (no ``camera.pitch_deg``): the marks used and
+        those the detector held back (outside the band in use) feed the fit."""
+        detector = self._detector
+        held = list(getattr(detector, "held_back", ()))
+        intr = self._frame_intrinsics(width, height)
+        if intr is not None and intr.distorted:
+            held = [undistort_mark(m, intr) for m in held]
+        sightings = [(m.x, m.y, s.forward_mm) for m, s in zip(found, marks, strict=True)]
+        focal = self._focal_px(intr, width)
+        sightings += [(m.x, m.y, self._to_seen(m, width, t, pose, cx, focal).forward_mm)
+                      for m in held]
+        message = detector.learn(sightings, width, height)
+        if message is not None:
+            if "too far off" in message:
+                log.warning("%s", message)
+            else:
+                log.info("%s", message)
+            self.horizon_messages.append(message)
 
     def _wheel_calibratable(self, robot: object) -> TypeGuard[WheelCalibratable]:
         """``isinstance(robot, WheelCalibratable)``, asked once per robot (a protocol check
@@ -353,13 +403,17 @@ class Perception(PerceptionBase):
             # a new window: its sensitivities count from here (they stay small and linear)
             robot.anchor_odometry()
             sensitivity = (0.0, 0.0, 0.0)
+            # From the new anchor the wheel scale acts on motion after it only: the poses
+            # already driven do not depend on it.
+            self.poses.set_extra((0.0, 0.0, 0.0))
         for m in marks:
             calibrator.add(m.colour, (pose.x, pose.y), m.world, sensitivity)
         step = calibrator.correction()
         if step is None:
             return
         before = robot.right_wheel_scale
-        robot.scale_right_wheel(step.factor)
+        robot.scale_right_wheel(step.factor)  # re-anchors: as above
+        self.poses.set_extra((0.0, 0.0, 0.0))
         self.wheel_calibrations.append(step)
         fit = step.fit
         log.info("odometry: right wheel scale %.4f -> %.4f ± %.4f (fit %+.4f ± %.4f from %d "

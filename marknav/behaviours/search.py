@@ -90,6 +90,7 @@ class SearchWhenLost(DrivingBehaviour):
         self.wheel_base_mm: float | None = None
         self.direction = 0
         self._t0 = 0.0
+        self._seen_t0 = -math.inf
         self._last_theta = 0.0
         self.turned_rad = 0.0
         self.forgot_memory = False
@@ -107,6 +108,11 @@ class SearchWhenLost(DrivingBehaviour):
 
     def initialise(self) -> None:
         self._t0 = self.now()
+        start = self.target()
+        # Found: a sighting captured since the start, or newer than the one there was then (a
+        # late frame's sighting counts even when captured before the start).
+        self._seen_t0 = (start.sighting.t if start is not None and start.sighting is not None
+                         else -math.inf)
         pose = self.robot.pose()
         self._last_theta = pose.theta
         self.turned_rad = 0.0
@@ -125,7 +131,7 @@ class SearchWhenLost(DrivingBehaviour):
             return self.fail("no target selected")
         elapsed = self.now() - self._t0
         seen = target.sighting
-        if seen is not None and seen.t >= self._t0:
+        if seen is not None and (seen.t > self._seen_t0 or seen.t >= self._t0):
             self.feedback_message = (f"found {target.label} after "
                                      f"{math.degrees(self.turned_rad):.0f}° ({elapsed:.1f} s)")
             return Status.SUCCESS

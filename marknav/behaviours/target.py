@@ -436,7 +436,7 @@ class TargetSeen(MarknavBehaviour):
         lost_after_s: default: the mission's ``navigation.lost_after_s``.
     """
 
-    READS: ClassVar[tuple[str, ...]] = (keys.TARGET,)
+    READS: ClassVar[tuple[str, ...]] = (keys.TARGET, keys.FRAME)
 
     def __init__(self, name: str = "Seen?", *, lost_after_s: float | None = None) -> None:
         super().__init__(name)
@@ -457,7 +457,7 @@ class TargetSeen(MarknavBehaviour):
         if target.sighting is None:
             self.feedback_message = f"{target.label} not seen yet"
             return Status.FAILURE
-        age = self.now() - target.sighting.t
+        age = keys.unseen_s(target.sighting, self.read(keys.FRAME), self.now())
         if age > self.lost_after_s:
             self.feedback_message = f"{target.label} unseen for {age:.2f} s"
             return Status.FAILURE

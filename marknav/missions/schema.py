@@ -128,6 +128,21 @@ class Marks(BaseModel):
         min_length=1,
         description="Mark colours by name: hue range and pass side. Hue ranges must not overlap.",
     )
+    height_mm: tuple[Annotated[float, Field(ge=0, le=5000, allow_inf_nan=False)],
+                     Annotated[float, Field(ge=0, le=5000, allow_inf_nan=False)]] | None = Field(
+        default=None,
+        description="[lo, hi]: the heights of the marks' centres above the floor, mm. With "
+        "camera.height_mm it places the horizon prior's band (a mark above the camera is seen "
+        "above the horizon, most at its nearest). null: the marks at the camera's height (the "
+        "paper's set-up).",
+    )
+
+    @field_validator("height_mm")
+    @classmethod
+    def _ordered(cls, value: tuple[float, float] | None) -> tuple[float, float] | None:
+        if value is not None and value[0] > value[1]:
+            raise ValueError(f"[lo, hi] with lo ≤ hi, got [{value[0]:g}, {value[1]:g}]")
+        return value
 
     @field_validator("colours")
     @classmethod
@@ -336,6 +351,31 @@ class Camera(BaseModel):
         default=DetectSettings(),
         description="Detector settings from the camera model: farthest range, horizon prior.",
     )
+    pitch_deg: float | None = Field(
+        default=None, ge=-30, le=30, allow_inf_nan=False,
+        description="The camera's tilt above the horizontal, degrees (positive: looking up; "
+        "marks at camera height then lie focal_px·tan(pitch) rows below the principal point). "
+        "With it the horizon prior's band is placed from the pose; null: level until the marks "
+        "seen say otherwise (learnt while driving).",
+    )
+    roll_deg: float | None = Field(
+        default=None, ge=-30, le=30, allow_inf_nan=False,
+        description="The camera's turn about its optical axis, degrees (positive: the image "
+        "turns clockwise): widens the horizon band by width/2·tan(roll) rows. null: 0.",
+    )
+    height_mm: float | None = Field(
+        default=None, ge=0, le=5000, allow_inf_nan=False,
+        description="Height of the camera's centre above the floor, mm; with marks.height_mm "
+        "it places the horizon band. null: at the marks' height.",
+    )
+    latency_s: float = Field(
+        default=0.0, ge=0.0, le=2.0, allow_inf_nan=False,
+        description="Seconds from a frame's capture to its arrival that the camera does not "
+        "report: a frame's capture time is its arrival minus this (for an MJPEG stream from "
+        "`marknav serve-camera`, which sends each frame's age at sending, arrival minus that "
+        "age minus this: then only the network's share). Marks are placed with the odometry "
+        "pose at the capture time. The simulator stamps its frames itself.",
+    )
     learn_range: bool = Field(
         default=True,
         description="Learn the range law while driving (odometry measures how far the robot "
@@ -539,6 +579,26 @@ class Sim(BaseModel):
         default=True,
         description="mujoco engine: the room's lamps cast shadows (about 1.5x the render time).",
     )
+    conditions: dict[str, Any] = Field(
+        default_factory=dict,
+        description="World conditions that replace the world's own (its file's, a generated or "
+        "randomised one's), e.g. {camera_latency_s: 0.4}: the keys of a world's conditions "
+        "(marknav schema --world). With --set: --set sim.conditions.camera_latency_s=0.4.",
+    )
+
+    @field_validator("conditions")
+    @classmethod
+    def _known_conditions(cls, value: dict[str, Any]) -> dict[str, Any]:
+        from marknav.sim.world import Conditions
+
+        try:
+            Conditions.model_validate(value)
+        except ValidationError as exc:
+            problems = "; ".join(
+                f"{'.'.join(str(p) for p in e['loc']) or 'conditions'}: {e['msg']}"
+                for e in exc.errors())
+            raise ValueError(f"not world conditions ({problems})") from None
+        return value
 
 
 # --------------------------------------------------------------------------------------------

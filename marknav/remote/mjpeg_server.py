@@ -12,6 +12,7 @@ IP cameras speak):
     --marknav-frame\\r\\n
     Content-Type: image/jpeg\\r\\n
     Content-Length: N\\r\\n
+    X-Capture-Age: 0.0213\\r\\n       (seconds since the frame was captured, when sent)
     \\r\\n
     <N bytes of JPEG>\\r\\n
     --marknav-frame\\r\\n
@@ -77,6 +78,10 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
+#: Each part's header with the frame's age when it is sent (seconds since capture, the
+#: source's best estimate): the client subtracts it from the arrival time. An age, not a
+#: time stamp: the two computers' clocks need not agree.
+CAPTURE_AGE_HEADER = "X-Capture-Age"
 #: The multipart boundary (RFC 2046 §5.1.1: 1-70 characters, no trailing space).
 BOUNDARY = "marknav-frame"
 STREAM_PATH = "/stream.mjpg"
@@ -134,13 +139,19 @@ def encode_jpeg(image: npt.NDArray[np.uint8], quality: int) -> bytes:
 
 @dataclass(frozen=True)
 class JpegFrame:
-    """One published frame: sequence number (1, 2, ...), JPEG bytes, size, publish time."""
+    """One published frame: sequence number (1, 2, ...), JPEG bytes, size, publish time, and
+    the source's capture time (``time.monotonic`` seconds; the publish time when unknown)."""
 
     seq: int
     jpeg: bytes
     width: int
     height: int
     t: float
+    captured: float | None = None
+
+    def age_s(self, now: float) -> float:
+        """Seconds since the frame was captured, at monotonic time ``now`` (never negative)."""
+        return max(0.0, now - (self.captured if self.captured is not None else self.t))
 
 
 class CameraStreamer:
@@ -267,10 +278,11 @@ class CameraStreamer:
 
     # --- the capture thread -------------------------------------------------------------------
 
-    def _publish(self, jpeg: bytes, width: int, height: int) -> None:
+    def _publish(self, jpeg: bytes, width: int, height: int,
+                 captured: float | None = None) -> None:
         with self._cond:
             seq = 1 if self._latest is None else self._latest.seq + 1
-            self._latest = JpegFrame(seq, jpeg, width, height, time.monotonic())
+            self._latest = JpegFrame(seq, jpeg, width, height, time.monotonic(), captured)
             if self._stalled:
                 log.warning("camera %r delivers frames again", self.name)
                 self._stalled = False
@@ -366,7 +378,7 @@ class CameraStreamer:
             if now - last_publish_t >= period * 0.999:
                 last_publish_t = now
                 h, w = frame.image.shape[:2]
-                self._publish(self._encode(frame.image), w, h)
+                self._publish(self._encode(frame.image), w, h, frame.t)
 
     def _run_finite(self) -> None:
         assert self.fps is not None
@@ -489,8 +501,10 @@ class _Handler(BaseHTTPRequestHandler):
         try:
             frame: JpegFrame | None = first
             while frame is not None:
+                age = frame.age_s(time.monotonic())
                 head = (f"--{BOUNDARY}\r\nContent-Type: image/jpeg\r\n"
-                        f"Content-Length: {len(frame.jpeg)}\r\n\r\n").encode("ascii")
+                        f"Content-Length: {len(frame.jpeg)}\r\n"
+                        f"{CAPTURE_AGE_HEADER}: {age:.4f}\r\n\r\n").encode("ascii")
                 self.wfile.write(head + frame.jpeg + b"\r\n")
                 self.wfile.flush()
                 sent += 1

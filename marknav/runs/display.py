@@ -60,6 +60,8 @@ def status_text(panel: dict[str, Any], style: str = "unicode") -> list[str]:
     marks = ", ".join(panel.get("marks") or []) or "none"
     seen = (f"marks in view: {marks}  camera {cam:.1f} Hz" if cam is not None
             else f"marks in view: {marks}  camera: waiting for frames")
+    if panel.get("latency_ms") is not None:
+        seen += f"  latency {panel['latency_ms']:.0f} ms"
     seen += f"  overruns {panel.get('overruns', 0)}"
     return [t, target, robot, seen]
 

@@ -17,6 +17,10 @@ Statistics:
 - collisions (bumper contacts, from the simulator's ground truth), marks passed on the wrong side
   (a waypoint whose ground-truth ``passed_on`` differs from its colour's side), marks the tree
   declared passed that the ground truth shows were never passed;
+- **silent failures**: waypoints the robot reported ``passed`` — sure of it — that the ground
+  truth denies (wrong side, skipped, another mark, out of order). A pass the robot reported
+  ``doubtful`` (:func:`marknav.behaviours.bypass.verify_pass`) is not silent: it is counted
+  apart, with how many of the doubts the truth bears out;
 - clearance: the minimum and the 5th percentile (linear interpolation between order statistics,
   numpy's default) of every passed waypoint's ground-truth ``min_clearance_mm``;
 - time per run: median and maximum simulated seconds, mean wall seconds.
@@ -40,7 +44,7 @@ import numpy as np
 from marknav.core.errors import InputError
 from marknav.core.figures import save_figure
 from marknav.runs.evaluate_backends import Job, run_jobs
-from marknav.runs.report import SUCCESS, RunReport, reached
+from marknav.runs.report import DOUBTFUL, PASSED_OUTCOMES, SUCCESS, RunReport, reached
 from marknav.sim.accuracy import DEFAULT_XS_MM, DEFAULT_YS_MM
 
 __all__ = [
@@ -117,7 +121,7 @@ class WaypointTruth:
 
     colour: str
     side: str
-    outcome: str  # "passed" | "failed" | "pending"
+    outcome: str  # "passed" | "doubtful" | "failed" | "pending"
     passed_on: str | None
     min_clearance_mm: float | None
     truth: str | None = None
@@ -135,8 +139,19 @@ class WaypointTruth:
 
     @property
     def unverified(self) -> bool:
-        """The tree declared it passed but the ground truth does not confirm it."""
-        return self.outcome == "passed" and not self.confirmed
+        """The tree declared it passed (sure or doubtful) but the ground truth does not confirm
+        it."""
+        return self.outcome in PASSED_OUTCOMES and not self.confirmed
+
+    @property
+    def silent_failure(self) -> bool:
+        """The robot reported it passed, without doubt, and the ground truth says otherwise."""
+        return self.outcome == "passed" and self.truth is not None and not self.confirmed
+
+    @property
+    def doubtful(self) -> bool:
+        """The robot reported the pass doubtful."""
+        return self.outcome == DOUBTFUL
 
     def describe(self) -> str:
         """What the truth says of a waypoint it does not confirm."""
@@ -221,10 +236,25 @@ class SeedResult:
     def unverified(self) -> int:
         return sum(1 for w in self.waypoints if w.unverified)
 
+    @property
+    def silent_failures(self) -> int:
+        """Waypoints reported passed, without doubt, that the ground truth denies."""
+        return sum(1 for w in self.waypoints if w.silent_failure)
+
+    @property
+    def doubtful(self) -> int:
+        return sum(1 for w in self.waypoints if w.doubtful)
+
+    @property
+    def doubts_borne_out(self) -> int:
+        """Doubtful passes the ground truth denies too (the doubt was right)."""
+        return sum(1 for w in self.waypoints if w.doubtful and w.truth is not None
+                   and not w.confirmed)
+
     def clearances(self) -> list[float]:
         """Ground-truth clearance of every waypoint the tree passed."""
         return [w.min_clearance_mm for w in self.waypoints
-                if w.outcome == "passed" and w.min_clearance_mm is not None]
+                if w.outcome in PASSED_OUTCOMES and w.min_clearance_mm is not None]
 
     def to_dict(self) -> dict[str, Any]:
         clear = self.clearances()
@@ -235,7 +265,9 @@ class SeedResult:
             "collisions": self.collisions, "wrong_side": self.wrong_side,
             "skipped": self.skipped, "out_of_order": self.out_of_order,
             "off_course": self.off_course,
-            "waypoints_passed": sum(1 for w in self.waypoints if w.outcome == "passed"),
+            "silent_failures": self.silent_failures, "doubtful": self.doubtful,
+            "doubts_borne_out": self.doubts_borne_out,
+            "waypoints_passed": sum(1 for w in self.waypoints if w.outcome in PASSED_OUTCOMES),
             "min_clearance_mm": round(min(clear), 1) if clear else None,
             "waypoints": [{"colour": w.colour, "side": w.side, "outcome": w.outcome,
                            "passed_on": w.passed_on, "min_clearance_mm": w.min_clearance_mm,
@@ -350,6 +382,10 @@ class Evaluation:
     out_of_order: int = 0
     off_course: int = 0
     unverified_passes: int = 0
+    silent_failures: int = 0
+    runs_with_silent_failures: int = 0
+    doubtful: int = 0
+    doubts_borne_out: int = 0
     min_clearance_mm: float | None = None
     clearance_p05_mm: float | None = None
     clearance_below_target: int = 0
@@ -404,6 +440,10 @@ class Evaluation:
             "out_of_order": self.out_of_order,
             "off_course": self.off_course,
             "unverified_passes": self.unverified_passes,
+            "silent_failures": self.silent_failures,
+            "runs_with_silent_failures": self.runs_with_silent_failures,
+            "doubtful": self.doubtful,
+            "doubts_borne_out": self.doubts_borne_out,
             "min_clearance_mm": r(self.min_clearance_mm),
             "clearance_p05_mm": r(self.clearance_p05_mm),
             "clearance_target_mm": self.clearance_target_mm,
@@ -432,9 +472,13 @@ def _incident(result: SeedResult, target_mm: float) -> list[str]:
         problems.append(f"{result.collisions} collision{'s' if result.collisions != 1 else ''}")
     got_to = reached(result.waypoints)
     for i, w in enumerate(result.waypoints, start=1):
+        said = (" (reported passed: a silent failure)" if w.silent_failure
+                else " (reported doubtful)" if w.doubtful else "")
         if (i <= got_to and w.truth is not None and not w.confirmed) or w.unverified:
-            problems.append(f"waypoint {i} {w.describe()}")
-        if (w.outcome == "passed" and w.min_clearance_mm is not None
+            problems.append(f"waypoint {i} {w.describe()}{said}")
+        elif w.doubtful:
+            problems.append(f"waypoint {i} ({w.colour}) reported doubtful, passed in truth")
+        if (w.outcome in PASSED_OUTCOMES and w.min_clearance_mm is not None
                 and w.min_clearance_mm < target_mm):
             problems.append(f"waypoint {i} ({w.colour}) clearance {w.min_clearance_mm:.0f} mm "
                             f"< {target_mm:.0f} mm")
@@ -471,6 +515,10 @@ def summarise(
     ev.out_of_order = sum(s.out_of_order for s in ordered)
     ev.off_course = sum(s.off_course for s in ordered)
     ev.unverified_passes = sum(s.unverified for s in ordered)
+    ev.silent_failures = sum(s.silent_failures for s in ordered)
+    ev.runs_with_silent_failures = sum(1 for s in ordered if s.silent_failures)
+    ev.doubtful = sum(s.doubtful for s in ordered)
+    ev.doubts_borne_out = sum(s.doubts_borne_out for s in ordered)
     clearances = [c for s in ordered for c in s.clearances()]
     ev.min_clearance_mm = min(clearances) if clearances else None
     ev.clearance_p05_mm = percentile(clearances, 5.0)
@@ -613,6 +661,11 @@ def format_evaluation(ev: Evaluation) -> str:
         f"  wrong side   {ev.wrong_side} mark{'s' if ev.wrong_side != 1 else ''} passed on the "
         f"wrong side" + (f"; {ev.unverified_passes} declared passed but not confirmed"
                          if ev.unverified_passes else ""),
+        f"  silent       {ev.silent_failures} silent failure"
+        f"{'s' if ev.silent_failures != 1 else ''} (reported passed, the truth denies; in "
+        f"{ev.runs_with_silent_failures} run{'s' if ev.runs_with_silent_failures != 1 else ''})"
+        f"; {ev.doubtful} pass{'es' if ev.doubtful != 1 else ''} reported doubtful, "
+        f"{ev.doubts_borne_out} of them denied by the truth",
         f"  skipped      {ev.skipped} course mark{'s' if ev.skipped != 1 else ''} never passed; "
         f"{ev.out_of_order} out of order; {ev.off_course} off-course mark"
         f"{'s' if ev.off_course != 1 else ''} passed instead",

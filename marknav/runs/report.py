@@ -4,12 +4,14 @@ The event log is written line by line and flushed as events happen, and the repo
 in a ``finally`` block, so an aborted, failed or interrupted run loses nothing.
 
 Report keys: ``outcome`` ("success" | "failed" | "aborted"), ``reason``, ``sim_time_s``,
-``wall_time_s``, ``ticks``, ``waypoints: [{colour, side, outcome, passed_on, min_clearance_mm,
-mark: {index, x_mm, y_mm}, truth, truth_detail}]``, ``collisions``, ``safety_events: [{t, event,
-state}]``, ``tick_ms: {p50, p99, max}``, ``overruns`` — plus ``mission``, ``seed``, ``robot``,
-``camera``, ``speedup`` and, from the simulator, ``truth_path: [[t, x_mm, y_mm], ...]``,
-and ``overrides``: the ``--set KEY=VALUE`` settings the run used on top of the mission file; and
-``range_law``: the range law learnt while driving.
+``wall_time_s``, ``ticks``, ``waypoints: [{colour, side, outcome, passed_on, min_clearance_mm, mark:
+{index, x_mm, y_mm}, truth, truth_detail, doubt}]`` (``outcome``: the robot's own verdict, "passed"
+| "doubtful" | "failed" | "pending"; ``doubt``: why a pass is doubtful), ``collisions``,
+``safety_events: [{t, event, state}]``, ``tick_ms: {p50, p99, max}``, ``overruns`` — plus
+``mission``, ``seed``, ``robot``, ``camera``, ``speedup`` and, from the simulator, ``truth_path:
+[[t, x_mm, y_mm], ...]``, and ``overrides``: the ``--set KEY=VALUE`` settings the run used on top of
+the mission file; and ``range_law``: the range law learnt while driving; ``frame_latency_ms``: the
+processed frames' measured age (capture to use).
 """
 
 from __future__ import annotations
@@ -32,12 +34,18 @@ SUCCESS = "success"
 FAILED = "failed"
 ABORTED = "aborted"
 
+#: A waypoint's verdict when the robot passed it by odometry but its own sightings do not
+#: confirm the pass (the waypoint's ``doubt`` says why).
+DOUBTFUL = "doubtful"
+#: The waypoint verdicts of a mark the robot went past: sure, or not.
+PASSED_OUTCOMES = ("passed", DOUBTFUL)
+
 
 @dataclass
 class WaypointResult:
     colour: str
     side: str
-    outcome: str = "pending"  # "passed" | "failed" | "pending"
+    outcome: str = "pending"  # "passed" | "doubtful" | "failed" | "pending"
     passed_on: str | None = None  # from ground truth (simulator only)
     min_clearance_mm: float | None = None  # from ground truth (simulator only)
     # Simulator only: the course's physical mark for this waypoint ({index, x_mm, y_mm}) and the
@@ -46,6 +54,8 @@ class WaypointResult:
     mark: dict[str, Any] | None = None
     truth: str | None = None
     truth_detail: str = ""
+    # Why the robot doubts its own pass (outcome "doubtful"), else None.
+    doubt: str | None = None
 
 
 class _Judged(Protocol):
@@ -62,7 +72,7 @@ def reached(waypoints: Sequence[_Judged]) -> int:
     means driving beyond a course mark without passing it."""
     last = 0
     for i, w in enumerate(waypoints, start=1):
-        if w.outcome == "passed" or (w.truth is not None and w.truth != "skipped"):
+        if w.outcome in PASSED_OUTCOMES or (w.truth is not None and w.truth != "skipped"):
             last = i
     return last
 
@@ -94,6 +104,21 @@ class RunReport:
     range_law: dict[str, Any] | None = None
     # Simulator only: the true path, [[t, x_mm, y_mm], ...] at 10 Hz, to re-check the truth.
     truth_path: list[list[float]] | None = None
+    # The processed frames' age when processed (capture to tick), measured: {p50, p95, max,
+    # frames}; plus frames_beyond_history: frames older than the pose history (placed with its
+    # oldest pose).
+    frame_latency_ms: dict[str, float] | None = None
+
+    def set_frame_latencies(self, latency_s: Sequence[float], beyond_history: int = 0) -> None:
+        if latency_s:
+            ms = np.asarray(latency_s) * 1000.0
+            self.frame_latency_ms = {
+                "p50": round(float(np.percentile(ms, 50)), 1),
+                "p95": round(float(np.percentile(ms, 95)), 1),
+                "max": round(float(ms.max()), 1),
+                "frames": len(ms),
+                "frames_beyond_history": beyond_history,
+            }
 
     @property
     def speedup(self) -> float | None:

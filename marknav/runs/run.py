@@ -23,7 +23,16 @@ from marknav.core import outputs, signals
 from marknav.core.errors import InputError
 from marknav.missions.schema import Mission, load_mission
 from marknav.runs.cvthreads import one_opencv_thread
-from marknav.runs.report import ABORTED, FAILED, SUCCESS, EventLog, RunReport, WaypointResult
+from marknav.runs.report import (
+    ABORTED,
+    DOUBTFUL,
+    FAILED,
+    PASSED_OUTCOMES,
+    SUCCESS,
+    EventLog,
+    RunReport,
+    WaypointResult,
+)
 from marknav.runs.runlog import Recorder
 from marknav.runs.runner import Environment, RunOptions, run_tree
 
@@ -81,6 +90,17 @@ def engine_of(mission: Mission, req: RunRequest) -> str:
 
 
 def _world_for(mission: Mission, req: RunRequest, seed: int) -> Any:
+    """The world of a simulated run, with the mission's ``sim.conditions`` on top of its own."""
+    world = _base_world(mission, req, seed)
+    changes = mission.sim.conditions if mission.sim is not None else {}
+    if changes:
+        conditions = type(world.conditions).model_validate(
+            {**world.conditions.model_dump(), **changes})
+        world = world.model_copy(update={"conditions": conditions})
+    return world
+
+
+def _base_world(mission: Mission, req: RunRequest, seed: int) -> Any:
     from marknav.sim import world as worldmod
 
     if req.world_model is not None:
@@ -141,7 +161,7 @@ def make_environment(mission: Mission, req: RunRequest, seed: int) -> Environmen
     from marknav.vision.sources import open_source
 
     # timeout 0: the control cycle takes the newest frame if there is one, and never waits
-    camera = open_source(req.camera, timeout_s=0.0)
+    camera = open_source(req.camera, timeout_s=0.0, latency_s=mission.camera.latency_s)
     try:
         driver = CreateDriver(
             req.robot, model=mission.robot.model,
@@ -157,14 +177,20 @@ def make_environment(mission: Mission, req: RunRequest, seed: int) -> Environmen
 
 
 def waypoint_outcomes(mission: Mission, report: RunReport) -> list[str]:
+    """Each waypoint's verdict as the robot sees it: ``passed``, ``doubtful`` (passed by
+    odometry, but its own sightings do not confirm it: the reason goes in the waypoint's
+    ``doubt``), ``failed`` (the first not passed when the run failed) or ``pending``."""
     bb = py_trees.blackboard.Blackboard
     passed = bb.get(keys.PASSED) if bb.exists(keys.PASSED) else ()
-    done = {p.waypoint for p in passed}
+    done = {p.waypoint: p for p in passed}
     out = []
     failed_marked = False
     for i in range(len(mission.route)):
         if i in done:
-            out.append("passed")
+            doubt = done[i].doubt
+            out.append(DOUBTFUL if doubt is not None else "passed")
+            if doubt is not None and i < len(report.waypoints):
+                report.waypoints[i].doubt = doubt
         elif report.outcome != "success" and not failed_marked:
             out.append("failed")
             failed_marked = True
@@ -309,6 +335,11 @@ def _finish(req: RunRequest, mission: Mission, env: Environment | None,
     req.finishing = True
     failure: Exception | None = None
     extra: dict[str, Any] = {}
+    doubts = [f"waypoint {i} ({w.colour}): {w.doubt}"
+              for i, w in enumerate(report.waypoints, start=1) if w.outcome == DOUBTFUL]
+    if report.outcome == SUCCESS and doubts:
+        report.reason += (f", {len(doubts)} of them doubtful by the robot's own evidence: "
+                          + "; ".join(doubts))
     try:
         if env is not None:
             env.close()
@@ -380,8 +411,10 @@ def _fill_range_law(root: py_trees.behaviour.Behaviour, mission: Mission,
     from marknav.behaviours.perception import Perception
 
     for node in root.iterate():
-        if isinstance(node, Perception) and node.range_learner is not None:
-            report.range_law = node.learnt_range(pass_times(mission))
+        if isinstance(node, Perception):
+            report.set_frame_latencies(node.latencies, node.frames_beyond_history)
+            if node.range_learner is not None:
+                report.range_law = node.learnt_range(pass_times(mission))
             return
 
 
@@ -440,11 +473,13 @@ def load(path: str) -> Mission:
 
 def summary(report: RunReport) -> str:
     """One line: what happened."""
-    passed = sum(1 for w in report.waypoints if w.outcome == "passed")
+    passed = sum(1 for w in report.waypoints if w.outcome in PASSED_OUTCOMES)
+    doubtful = sum(1 for w in report.waypoints if w.outcome == DOUBTFUL)
     speed = report.speedup
     speed_s = f", {speed:.1f}x real time" if speed is not None and math.isfinite(speed) else ""
+    doubts = f", {doubtful} of them doubtful" if doubtful else ""
     line = (f"{report.mission}: {report.outcome} — {report.reason} ({passed}/"
-            f"{len(report.waypoints)} waypoints, {report.collisions} collisions, "
+            f"{len(report.waypoints)} waypoints{doubts}, {report.collisions} collisions, "
             f"{report.sim_time_s:.1f} s{speed_s})")
     if report.outcome == ABORTED and report.reason.startswith("interrupted"):
         line += "; wheels stopped"

@@ -8,10 +8,12 @@ Records (``t``: seconds since the run started, never decreasing; ``kind`` names 
   (route, pass sides, clearance, colours) and, in the simulator, the world (marks, walls, boxes).
 - ``tick`` (every tick): ``n``; ``nodes``: ``{index: [status, message]}`` for the nodes whose
   status or feedback changed; ``panel``: the live view's status figures (target, range, bearing,
-  wheel speeds, safety state, marks in view, camera rate, overruns); ``pose``: odometry
-  ``[x_mm, y_mm, theta_rad]``; ``truth``: the simulator's true pose; ``bb``: the blackboard values
-  behaviours wrote this tick (``/marknav/passed`` and ``/marknav/plans``: only the entries added).
-- ``frame`` (each processed camera frame): ``index``, ``size``, ``marks``: per detection the
+  wheel speeds, safety state, marks in view, camera rate, frame latency, overruns); ``pose``:
+  odometry ``[x_mm, y_mm, theta_rad]``; ``truth``: the simulator's true pose; ``bb``: the
+  blackboard values behaviours wrote this tick (``/marknav/passed`` and ``/marknav/plans``:
+  only the entries added).
+- ``frame`` (each processed camera frame): ``index``, ``size``, ``captured_t`` (its capture
+  time, run seconds), ``latency_ms`` (its age when processed), ``marks``: per detection the
   pixels (``x_px``, ``y_px``, ``axes_px``, ``angle_deg``) and the estimate (``forward_mm``,
   ``left_mm``, ``world``); ``image``: the JPEG file (relative to the log) when frames are saved.
 - ``safety`` (the runner): each safety transition.
@@ -213,6 +215,9 @@ class Recorder:
         ft = self._frame_times
         out["camera_hz"] = (round((len(ft) - 1) / (ft[-1] - ft[0]), 1)
                             if len(ft) > 2 and ft[-1] > ft[0] else None)
+        frame = bb.get(keys.FRAME) if bb.exists(keys.FRAME) else None
+        if frame is not None:
+            out["latency_ms"] = round(1000.0 * frame.latency_s, 1)
         out["overruns"] = overruns
         out["active"] = (self.state.active_path().split(" / ")[-1]
                          if self.root.status.value == "RUNNING" else "finished")
@@ -294,7 +299,12 @@ class Recorder:
                              world=[round(s.world_x, 1), round(s.world_y, 1)])
                 marks.append(d)
             h, w = frame.image.shape[:2]
-            out.append(({"index": frame.index, "size": [w, h], "marks": marks}, frame.image))
+            record = {"index": frame.index, "size": [w, h], "marks": marks}
+            info = bb.get(keys.FRAME) if bb.exists(keys.FRAME) else None
+            if info is not None and info.index == frame.index:  # capture time, age when used
+                record["captured_t"] = round(info.t - (self._t0 or 0.0), 4)
+                record["latency_ms"] = round(1000.0 * info.latency_s, 1)
+            out.append((record, frame.image))
         return out
 
     def _save_image(self, now: float, record: dict[str, Any], image: Any) -> None:

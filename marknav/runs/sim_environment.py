@@ -16,6 +16,7 @@ plot.
 
 from __future__ import annotations
 
+import bisect
 import logging
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -24,6 +25,7 @@ import numpy as np
 
 from marknav.core.clock import ManualClock
 from marknav.planning.kinematics import Pose
+from marknav.planning.pose_history import interpolate_pose
 from marknav.robot.driver import CreateDriver
 from marknav.robot.robot import Robot
 from marknav.sim import world as worldmod
@@ -56,6 +58,22 @@ class GroundTruth:
         self.t.append(t)
         self.xy.append((pose.x, pose.y))
         self.theta.append(pose.theta)
+
+    def pose_at(self, t: float) -> Pose:
+        """The true pose at time ``t``, interpolated between the recorded sub-steps (the first
+        pose before the first record, the last after the last)."""
+        ts = self.t
+        if not ts:
+            raise ValueError("no pose recorded yet")
+        k = bisect.bisect_right(ts, t)
+        if k == 0:
+            return Pose(*self.xy[0], self.theta[0])
+        if k == len(ts):
+            return Pose(*self.xy[-1], self.theta[-1])
+        t0, t1 = ts[k - 1], ts[k]
+        w = (t - t0) / (t1 - t0) if t1 > t0 else 1.0
+        return interpolate_pose(Pose(*self.xy[k - 1], self.theta[k - 1]),
+                                Pose(*self.xy[k], self.theta[k]), w)
 
     def trajectory(self, t0: float | None = None, t1: float | None = None) -> np.ndarray:
         """Positions (N×2) between times ``t0`` and ``t1`` (inclusive; None = open)."""
@@ -127,6 +145,7 @@ class SimEnvironment:
             sensor_timeout_s=sensor_timeout_s, wheel_base_mm=wheel_base_mm, start_pose=start,
             first_frame_timeout_s=None, settle_s=0.0, reader_thread=False,
         )
+        self.truth = GroundTruth()
         self.camera: Any
         if self._mujoco is not None:
             from marknav.sim.mujoco.camera import MujocoCamera
@@ -138,9 +157,10 @@ class SimEnvironment:
                 unregister(self._url.split("://", 1)[1])
                 raise
         else:
+            # the frame of capture time t shows the true pose at t (latency, processing time)
             self.camera = SimCamera(world, palette, pose_fn=lambda: self.create.pose,
-                                    clock=self.clock, config=cam_config, seed=seed)
-        self.truth = GroundTruth()
+                                    clock=self.clock, config=cam_config, seed=seed,
+                                    pose_at=self.truth.pose_at)
         self._in_contact = False
         self._closed = False
         self._event_dicts: list[dict[str, Any]] = []

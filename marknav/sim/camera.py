@@ -26,9 +26,12 @@ Rendering (:class:`Renderer`, :func:`render`):
   ``noise_sigma``, from a pre-generated tile at a random offset drawn from ``rng``).
 
 :class:`SimCamera` is a :class:`marknav.vision.sources.FrameSource`: each ``read`` renders the
-pose from ``pose_fn()`` at ``clock.now()``; ``latency_frames`` delays delivery through a ring
-buffer. The principal point is the image centre ((width − 1)/2, (height − 1)/2), pixel centres
-at integer coordinates, as OpenCV's moments and ``fitEllipse`` count them.
+world as it was at the frame's capture time, ``clock.now()`` minus the world's
+``camera_latency_s + processing_s`` (continuous time: the pose comes from ``pose_at(t)``, the
+simulator's true path interpolated), and stamps the frame with that capture time;
+``latency_frames`` further delays delivery through a ring buffer. The principal point is the
+image centre ((width − 1)/2, (height − 1)/2), pixel centres at integer coordinates, as
+OpenCV's moments and ``fitEllipse`` count them.
 """
 
 from __future__ import annotations
@@ -135,6 +138,28 @@ def project_marks(world: World, pose: Pose, config: CameraConfig = CameraConfig(
         ProjectedMark]:
     """The marks the camera at ``pose`` sees (any part in the image), far to near."""
     return MarkGeometry(world).project(pose, config)
+
+
+def tilt_homography(config: CameraConfig, *, pitch_deg: float,
+                    roll_deg: float) -> FloatArray | None:
+    """The image map of a camera turned by ``pitch_deg`` (up) and then ``roll_deg`` (about its
+    optical axis) from level: H = K·R·K⁻¹ (a rotation about the centre of projection maps the
+    whole image by a homography; Hartley & Zisserman, 2nd ed., §8.4.2). Camera coordinates x
+    right, y down, z forward; a level point ahead goes to the row cy + f·tan(pitch). ``None``
+    for a level camera."""
+    if pitch_deg == 0.0 and roll_deg == 0.0:
+        return None
+    p, r = math.radians(pitch_deg), math.radians(roll_deg)
+    pitch = np.array([[1.0, 0.0, 0.0],
+                      [0.0, math.cos(p), math.sin(p)],
+                      [0.0, -math.sin(p), math.cos(p)]])
+    roll = np.array([[math.cos(r), -math.sin(r), 0.0],
+                     [math.sin(r), math.cos(r), 0.0],
+                     [0.0, 0.0, 1.0]])
+    k = np.array([[config.focal_px, 0.0, config.cx], [0.0, config.focal_px, config.cy],
+                  [0.0, 0.0, 1.0]])
+    h = k @ roll @ pitch @ np.linalg.inv(k)
+    return np.asarray(h / h[2, 2], dtype=np.float64)
 
 
 # --- background -------------------------------------------------------------------------------
@@ -316,6 +341,8 @@ class Renderer:
                 cv2.GaussianBlur(self._pan, self._ksize, self._blur), dtype=np.uint8)
         sigma = world.conditions.noise_sigma
         self._noise = _noise_tiles(world.background.seed, sigma, config) if sigma > 0 else None
+        self._tilt = tilt_homography(config, pitch_deg=cond.camera_pitch_deg,
+                                     roll_deg=cond.camera_roll_deg)
 
     @property
     def _ksize(self) -> tuple[int, int]:
@@ -377,7 +404,7 @@ class Renderer:
     def render(self, pose: Pose, rng: np.random.Generator | None = None) -> Image:
         """One BGR frame from ``pose``. ``rng`` picks the noise; ``None`` renders noise-free."""
         if (self._noise is not None and rng is not None and self._warp is None
-                and not self._poles):
+                and not self._poles and self._tilt is None):
             return self._render_noisy(pose, rng, self._noise)
         cfg = self._canvas
         h, w = cfg.height, cfg.width
@@ -395,6 +422,10 @@ class Renderer:
         if self._warp is not None:
             img = self._warp.apply(img)
             h, w = self.config.height, self.config.width
+        if self._tilt is not None:
+            img = np.asarray(cv2.warpPerspective(img, self._tilt, (w, h), flags=cv2.INTER_LINEAR,
+                                                 borderMode=cv2.BORDER_REPLICATE),
+                             dtype=np.uint8)
         if self._noise is not None and rng is not None:
             pos, neg = self._noise
             oy = int(rng.integers(0, h + 1))
@@ -452,10 +483,13 @@ def render(
 class SimCamera:
     """The simulator's camera as a :class:`~marknav.vision.sources.FrameSource`.
 
-    Each :meth:`read` renders the world from ``pose_fn()`` at ``clock.now()``; with
-    ``latency_frames`` = L it delivers the frame rendered L reads earlier (the first frame until
-    L frames have been taken). ``seed`` fixes the noise. ``close`` is idempotent; a closed
-    camera reads ``None``.
+    Each :meth:`read` renders the world at the capture time ``clock.now() − delay_s`` (``delay_s``
+    defaults to the world's ``camera_latency_s + processing_s``) from ``pose_at(capture time)``
+    (without ``pose_at``, or with no delay: ``pose_fn()``, the pose now) and stamps the frame
+    with the capture time, as a camera whose driver reports it would. With ``latency_frames``
+    = L it delivers the frame rendered L reads earlier (the first frame until L frames have
+    been taken). ``seed`` fixes the noise. ``close`` is idempotent; a closed camera reads
+    ``None``.
     """
 
     def __init__(
@@ -469,14 +503,23 @@ class SimCamera:
         seed: int = 0,
         latency_frames: int | None = None,
         name: str = "sim",
+        pose_at: Callable[[float], Pose] | None = None,
+        delay_s: float | None = None,
     ) -> None:
         latency = world.conditions.latency_frames if latency_frames is None else latency_frames
         if latency < 0:
             raise ValueError(f"latency_frames must be ≥ 0, got {latency}")
+        cond = world.conditions
+        delay = cond.camera_latency_s + cond.processing_s if delay_s is None else delay_s
+        if not (math.isfinite(delay) and delay >= 0.0):
+            raise ValueError(f"delay_s must be ≥ 0, got {delay}")
         self.name = name
         self.latency_frames = latency
+        #: Capture to processing (s): what the tick processing a frame sees of its age.
+        self.delay_s = float(delay)
         self.renderer = Renderer(world, palette, config)
         self._pose_fn = pose_fn
+        self._pose_at = pose_at
         self._clock = clock
         self._rng = np.random.default_rng([int(seed), 0xCA3E7A])
         self._buffer: deque[Frame] = deque(maxlen=latency + 1)
@@ -500,8 +543,11 @@ class SimCamera:
     def read(self) -> Frame | None:
         if self._closed:
             return None
-        image = self.renderer.render(self._pose_fn(), self._rng)
-        self._buffer.append(Frame(image=image, t=self._clock.now(), index=self._index))
+        t = self._clock.now() - self.delay_s
+        pose = (self._pose_at(t) if self._pose_at is not None and self.delay_s > 0.0
+                else self._pose_fn())
+        image = self.renderer.render(pose, self._rng)
+        self._buffer.append(Frame(image=image, t=t, index=self._index))
         self._index += 1
         return self._buffer[0]
 

@@ -186,9 +186,12 @@ def clip_near(pts: FloatArray, near: float) -> FloatArray:
 
 
 class MarkGeometry:
-    """The marks' rims in world coordinates (x, y, height above the camera), computed once."""
+    """The marks' rims in world coordinates (x, y, height above the camera: the world's
+    ``mark_height_offset_mm`` lifts them), computed once."""
 
     def __init__(self, world: World) -> None:
+        #: The marks' centres above the camera (mm): world.conditions.mark_height_offset_mm.
+        self.lift_mm = float(world.conditions.mark_height_offset_mm)
         n = RIM_POINTS
         phi = np.linspace(0.0, 2.0 * math.pi, n, endpoint=False)
         # Area-matched polygon: (n/2)·ρ²·sin(2π/n) = π·R².
@@ -200,7 +203,7 @@ class MarkGeometry:
             ax, ay = math.cos(m.yaw_rad), math.sin(m.yaw_rad)  # in-plane horizontal axis
             rims[j, :, 0] = m.x_mm + r * np.cos(phi) * ax
             rims[j, :, 1] = m.y_mm + r * np.cos(phi) * ay
-            rims[j, :, 2] = r * np.sin(phi)
+            rims[j, :, 2] = r * np.sin(phi) + self.lift_mm
             centres[j] = m.xy
         self.rims = rims
         self.centres = centres
@@ -244,7 +247,7 @@ class MarkGeometry:
             zj = float(zc[j])
             xj = float(dcx[j] * s - dcy[j] * c)
             u = cx + f * xj / zj if zj > config.near_mm else math.nan
-            v = cy if zj > config.near_mm else math.nan
+            v = cy - f * self.lift_mm / zj if zj > config.near_mm else math.nan
             pm = ProjectedMark(index=j, depth_mm=zj, u=u, v=v, polygon=poly)
             if bbox is not None:
                 pm.__dict__["bbox"] = bbox  # the cached_property's value, already known

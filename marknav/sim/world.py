@@ -239,6 +239,17 @@ class Conditions(_Strict):
       left's for the same command (e.g. unequal tyres); the encoders do not see it.
     - ``wheel_slip``: fraction of each wheel's travel lost to slip; the encoders do not see it.
     - ``latency_frames``: the camera delivers the frame taken this many reads earlier.
+    - ``camera_latency_s``: the time from a frame's capture to its arrival at the computer
+      (exposure, encoding, a Wi-Fi link: 0.13–0.3 s for MJPEG over Wi-Fi), in continuous time.
+    - ``processing_s``: the time from a frame's arrival to the wheel command it leads to
+      (detection, estimation, the tree). The simulated tick takes no simulated time, so the
+      frame a tick processes is one captured ``camera_latency_s + processing_s`` before it.
+    - ``camera_pitch_deg``, ``camera_roll_deg``: the camera's tilt above the horizontal
+      (positive: looking up) and its turn about its optical axis (positive: the image turns
+      clockwise), degrees. A mark at camera height then lies f·tan(pitch) rows below the
+      principal point.
+    - ``mark_height_offset_mm``: how far the marks' centres stand above the camera (negative:
+      below), mm; 0 is the paper's set-up, marks at camera height.
     - Room (:mod:`marknav.sim.scenery`): ``floor`` (``plain``, ``wood``, ``carpet``) at
       ``floor_saturation``; ``wall`` (``plain`` or ``photo``); ``wall_hue`` (a hue that dominates
       the scene, or none); ``occluders`` (thin poles in front of the marks); ``distractors``
@@ -254,6 +265,12 @@ class Conditions(_Strict):
     wheel_mismatch: Annotated[float, Field(ge=-0.5, le=0.5, allow_inf_nan=False)] = 0.0
     wheel_slip: Annotated[float, Field(ge=0.0, lt=1.0, allow_inf_nan=False)] = 0.0
     latency_frames: Annotated[int, Field(ge=0, le=30)] = 0
+    camera_latency_s: Annotated[float, Field(ge=0.0, le=2.0, allow_inf_nan=False)] = 0.0
+    processing_s: Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False)] = 0.0
+    camera_pitch_deg: Annotated[float, Field(ge=-30.0, le=30.0, allow_inf_nan=False)] = 0.0
+    camera_roll_deg: Annotated[float, Field(ge=-30.0, le=30.0, allow_inf_nan=False)] = 0.0
+    mark_height_offset_mm: Annotated[float, Field(ge=-1000.0, le=1000.0,
+                                                  allow_inf_nan=False)] = 0.0
     floor: Literal["plain", "wood", "carpet"] = "plain"
     floor_saturation: Annotated[float, Field(ge=0.0, le=255.0, allow_inf_nan=False)] = 120.0
     wall: Literal["plain", "photo"] = "plain"

@@ -133,7 +133,8 @@ def test_summarise_counts_what_went_wrong() -> None:
     assert not ev.passed
     incidents = {s.seed: problems for s, problems in ev.incidents}
     assert incidents == {
-        11: ["waypoint 1 (red, mark 0) wrong side: passed on its right at 305 mm"],
+        11: ["waypoint 1 (red, mark 0) wrong side: passed on its right at 305 mm "
+             "(reported passed: a silent failure)"],
         12: ["3 collisions", "waypoint 1 (red) clearance 240 mm < 250 mm"],
         13: ["1 collision"],
     }

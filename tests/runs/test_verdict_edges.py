@@ -45,6 +45,8 @@ def test_a_runs_record_field_by_field() -> None:
         "seed": 7, "outcome": "success", "reason": "every waypoint passed",
         "sim_time_s": 12.346, "wall_time_s": 1.235, "mission": "missions/m.yaml",
         "collisions": 2, "wrong_side": 1, "skipped": 1, "out_of_order": 1, "off_course": 1,
+        # sure of 3 passes the truth denies (wrong side, out of order, off course)
+        "silent_failures": 3, "doubtful": 0, "doubts_borne_out": 0,
         "waypoints_passed": 4, "min_clearance_mm": 287.3,
         "waypoints": [
             {"colour": "red", "side": "left", "outcome": "passed", "passed_on": "left",

@@ -207,3 +207,30 @@ def test_bench_mujoco_measures_both_sizes_with_and_without_shadows_against_the_f
             assert ms > 0 and abs(row[f"mujoco_{key}_fps"] - 1000.0 / ms) < 0.1 * 1000.0 / ms
             # (the ratio is of the unrounded time: its last digit may differ by one)
             assert abs(row[f"mujoco_{key}_over_builtin"] - ms / row["builtin_ms_p50"]) < 0.06
+
+
+def test_a_late_camera_delivers_the_frame_captured_that_long_ago() -> None:
+    """camera_latency_s + processing_s in continuous time: after the first reads (the oldest
+    frame while none is old enough), each frame read is the one rendered ≥ 0.17 s earlier,
+    stamped with its capture time: the frame rendered then."""
+    from marknav.sim.mujoco.camera import MujocoCamera
+
+    world = World(marks=(MarkSpec(colour="red", x_mm=0.0, y_mm=2000.0, radius_mm=100.0),),
+                  conditions=Conditions(noise_sigma=0.0, camera_latency_s=0.12,
+                                        processing_s=0.05))
+    body = MujocoBody(world, DEFAULT_PALETTE, camera=CameraConfig(width=160, height=120,
+                                                                  focal_px=147.5),
+                      shadows=False)
+    clock = ManualClock()
+    with MujocoCamera(body, clock=clock) as cam:
+        assert cam.delay_s == pytest.approx(0.17)
+        seen = []
+        for k in range(12):
+            body.set_pose(Pose(0.0, 50.0 * k, math.pi / 2))  # 50 mm closer each 50 ms
+            frame = cam.read()
+            assert frame is not None
+            seen.append((clock.now(), frame.t, frame.index))
+            clock.advance(0.05)
+    assert seen[0][1:] == (0.0, 0) and seen[1][1:] == (0.0, 0)  # nothing old enough yet
+    for now, t, index in seen[4:]:
+        assert now - t == pytest.approx(0.2) and index == round(t / 0.05)

@@ -18,6 +18,7 @@ from marknav.behaviours.perception import Perception
 from marknav.cli.main import main
 from marknav.missions.detector import (
     HORIZON_SLACK_PX,
+    LEARN_SPAN_DEG,
     ROBOT_FLOOR_PX,
     CameraDetector,
     mission_detector,
@@ -54,7 +55,17 @@ def test_a_farthest_range_derives_the_minimum_radius_and_the_horizon_band(
     assert cfg.min_partial_radius == pytest.approx(1.6 * cfg.min_radius)
     assert cfg.horizon_row == pytest.approx(239.5)
     t = math.tan(math.radians(3.0))
-    assert cfg.horizon_tolerance_px == pytest.approx((590 + 320) * t + HORIZON_SLACK_PX)
+    band = (590 + 320) * t + HORIZON_SLACK_PX
+    # No camera.pitch_deg: the pose is learnt, so the detector searches wide, and the level
+    # band is the one whose marks are used until a fit moves it.
+    wide = (590 + 320) * math.tan(math.radians(LEARN_SPAN_DEG)) + HORIZON_SLACK_PX
+    assert cfg.horizon_tolerance_px == pytest.approx(wide)
+    det = CameraDetector.for_mission(mission)
+    assert det.accepts(239.5 + band - 0.1, 480) and not det.accepts(239.5 + band + 0.1, 480)
+    # A given pitch: its band, searched and used
+    level = load_mission(_mission(tmp_path, "  detect: {max_range_mm: 6000}\n  pitch_deg: 0\n"))
+    cfg = CameraDetector.for_mission(level).config_for(640, 480)
+    assert cfg.horizon_tolerance_px == pytest.approx(band)
 
 
 def test_a_half_size_frame_gets_the_camera_scaled_to_it(tmp_path: Path) -> None:

@@ -75,6 +75,10 @@ class MjpegReader:
         assert self.file.readline() == b"Content-Type: image/jpeg\r\n"
         m = re.fullmatch(rb"Content-Length: (\d+)\r\n", self.file.readline())
         assert m
+        age = re.fullmatch(rb"X-Capture-Age: (\d+\.\d{4})\r\n", self.file.readline())
+        assert age  # the frame's age when sent, seconds
+        self.age_s = float(age.group(1))
+        assert 0.0 <= self.age_s < 5.0
         assert self.file.readline() == b"\r\n"
         body = self.file.read(int(m.group(1)))
         assert self.file.read(2) == b"\r\n"

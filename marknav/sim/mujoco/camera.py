@@ -7,8 +7,11 @@ camera rather than to the room are then applied as the built-in camera applies t
 distortion (the pinhole image is rendered on a larger canvas and remapped,
 :class:`marknav.sim.lens.LensWarp`), a Gaussian blur of σ ``blur_sigma_px`` and additive
 Gaussian noise of σ ``noise_sigma`` (from a tile drawn once, at a random offset per frame);
-``latency_frames`` delays delivery. Light level and colour come from the room's lamps (the
-model), not from a gain.
+``latency_frames`` delays delivery by whole frames, and the world's ``camera_latency_s +
+processing_s`` in continuous time: MuJoCo renders the present state only, so every read renders
+now into a short queue and delivers the newest frame captured at least that long ago, stamped
+with its capture time (the built-in camera renders the past pose directly). Light level and
+colour come from the room's lamps (the model), not from a gain.
 """
 
 from __future__ import annotations
@@ -59,6 +62,12 @@ class MujocoCamera:
             self._noise = (np.clip(np.rint(tile), 0, 255).astype(np.uint8),
                            np.clip(np.rint(-tile), 0, 255).astype(np.uint8))
         self._buffer: deque[Frame] = deque(maxlen=latency + 1)
+        delay = cond.camera_latency_s + cond.processing_s
+        if not (math.isfinite(delay) and delay >= 0.0):
+            raise ValueError(f"camera latency must be ≥ 0 s, got {delay}")
+        #: Capture to processing (s), as :attr:`marknav.sim.camera.SimCamera.delay_s`.
+        self.delay_s = float(delay)
+        self._late: deque[Frame] = deque()  # rendered, not yet old enough to deliver
         self._index = 0
         self._closed = False
 
@@ -95,8 +104,13 @@ class MujocoCamera:
     def read(self) -> Frame | None:
         if self._closed:
             return None
-        self._buffer.append(Frame(image=self.render(), t=self._clock.now(), index=self._index))
+        now = self._clock.now()
+        self._late.append(Frame(image=self.render(), t=now, index=self._index))
         self._index += 1
+        # the newest frame at least delay_s old (the oldest one while none is yet)
+        while len(self._late) > 1 and self._late[1].t <= now - self.delay_s + 1e-9:
+            self._late.popleft()
+        self._buffer.append(self._late[0])
         return self._buffer[0]
 
     def close(self) -> None:
@@ -104,6 +118,7 @@ class MujocoCamera:
             return
         self._closed = True
         self._buffer.clear()
+        self._late.clear()
         # An OpenGL context left to the garbage collector at exit complains (ctypes errors).
         self._renderer.close()
 

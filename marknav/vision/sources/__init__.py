@@ -72,21 +72,26 @@ __all__ = [
 
 
 def open_source(spec: str, *, clock: Clock | None = None,
-                timeout_s: float = DEFAULT_TIMEOUT_S) -> FrameSource:
-    """Open ``spec`` (see the module docstring); :class:`InputError` naming it if it cannot."""
+                timeout_s: float = DEFAULT_TIMEOUT_S, latency_s: float = 0.0) -> FrameSource:
+    """Open ``spec`` (see the module docstring); :class:`InputError` naming it if it cannot.
+    A live source stamps its frames with their arrival time minus ``latency_s`` (and minus the
+    age an MJPEG server reports); files and stills are stamped when read."""
     spec = spec.strip()
     if not spec:
         raise InputError("empty camera name", field="--camera")
     if spec.isdigit():
-        return LiveCaptureSource(spec, int(spec), clock=clock, timeout_s=timeout_s)
+        return LiveCaptureSource(spec, int(spec), clock=clock, timeout_s=timeout_s,
+                                 latency_s=latency_s)
     if spec.startswith("/dev/video"):
         if stat_path(spec, field="--camera") is None:
             raise InputError("no such camera device", file=spec)
-        return LiveCaptureSource(spec, spec, clock=clock, timeout_s=timeout_s)
+        return LiveCaptureSource(spec, spec, clock=clock, timeout_s=timeout_s,
+                                 latency_s=latency_s)
     if spec.lower().startswith(("http://", "https://")):
-        return open_http_source(spec, clock=clock, timeout_s=timeout_s)
+        return open_http_source(spec, clock=clock, timeout_s=timeout_s, latency_s=latency_s)
     if spec.lower().startswith(STREAM_SCHEMES):
-        return LiveCaptureSource(spec, spec, clock=clock, timeout_s=timeout_s)
+        return LiveCaptureSource(spec, spec, clock=clock, timeout_s=timeout_s,
+                                 latency_s=latency_s)
     st = stat_path(spec, field="--camera")
     if st is not None and stat.S_ISDIR(st.st_mode):
         paths = sorted(str(p) for p in Path(spec).iterdir()

@@ -30,7 +30,8 @@ DEFAULT_TIMEOUT_S = 1.0
 
 @dataclass(frozen=True)
 class Frame:
-    """One BGR image with the time it was taken (source clock, seconds) and its index."""
+    """One BGR image with the time it was captured (the source's clock, seconds: its best
+    estimate, see :class:`GrabbedSource`) and its index."""
 
     image: Image
     t: float
@@ -139,12 +140,24 @@ class GrabbedSource:
     Subclasses implement :meth:`_grab_image` (block at most a bounded time for the next image;
     ``None`` when none came) and :meth:`_release`. ``read`` never waits longer than
     ``timeout_s`` (``0``: the control cycle takes the newest frame if there is one, and goes on).
+
+    A frame's time is its capture time as well as it is known: the arrival time minus the age
+    the source reported for it (:attr:`_reported_age_s`, set by :meth:`_grab_image`: an MJPEG
+    server's ``X-Capture-Age``) minus ``latency_s``, the delay nobody reports (configured:
+    ``camera.latency_s``). OpenCV's ``CAP_PROP_POS_MSEC`` is not used: for V4L2 webcams it is
+    the driver's buffer time stamp on a clock OpenCV does not name (monotonic or wall, by
+    driver), for streams a position in the stream — neither comparable with this clock.
     """
 
     def __init__(self, name: str, *, clock: Clock | None = None,
-                 timeout_s: float = DEFAULT_TIMEOUT_S) -> None:
+                 timeout_s: float = DEFAULT_TIMEOUT_S, latency_s: float = 0.0) -> None:
+        if not (latency_s >= 0.0 and latency_s < float("inf")):
+            raise InputError(f"must be ≥ 0 s, got {latency_s!r}", field="camera.latency_s")
         self.name = name
         self.timeout_s = timeout_s
+        self.latency_s = float(latency_s)
+        #: The age of the image :meth:`_grab_image` just returned, as its source reported it.
+        self._reported_age_s: float | None = None
         self._clock = clock or MonotonicClock()
         self._cond = threading.Condition()
         self._latest: Frame | None = None
@@ -185,6 +198,7 @@ class GrabbedSource:
                 with self._cond:
                     if self._closing:
                         return
+                self._reported_age_s = None
                 try:
                     image = self._grab_image()
                 except Exception as exc:  # a camera failure must not end the thread silently
@@ -200,7 +214,8 @@ class GrabbedSource:
                     time.sleep(0.05)
                     continue
                 index += 1
-                frame = Frame(np.asarray(image, dtype=np.uint8), self._clock.now(), index)
+                age = (self._reported_age_s or 0.0) + self.latency_s
+                frame = Frame(np.asarray(image, dtype=np.uint8), self._clock.now() - age, index)
                 with self._cond:
                     self._latest = frame
                     self._failed_reported = False
@@ -285,8 +300,9 @@ class LiveCaptureSource(GrabbedSource):
     newest frame."""
 
     def __init__(self, name: str, target: int | str, *, clock: Clock | None = None,
-                 timeout_s: float = DEFAULT_TIMEOUT_S, open_timeout_s: float = 5.0) -> None:
-        super().__init__(name, clock=clock, timeout_s=timeout_s)
+                 timeout_s: float = DEFAULT_TIMEOUT_S, open_timeout_s: float = 5.0,
+                 latency_s: float = 0.0) -> None:
+        super().__init__(name, clock=clock, timeout_s=timeout_s, latency_s=latency_s)
         self._cap = open_capture(target, name,
                                  timeout_s=open_timeout_s + FFMPEG_OPEN_TIMEOUT_MS / 1000)
         if not self._cap.isOpened():

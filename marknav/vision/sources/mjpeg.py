@@ -17,6 +17,11 @@ Here the HTTP request and the ``multipart/x-mixed-replace`` stream (the format
 A URL that answers with one ``image/jpeg`` (a snapshot URL) is polled: each grab is a new
 request. A URL that serves anything else (or parts without ``Content-Length``) is handed to
 OpenCV (:class:`~marknav.vision.sources.LiveCaptureSource`, with FFmpeg timeouts set).
+
+Capture time: a part's ``X-Capture-Age`` header (``marknav serve-camera`` sends the frame's age
+in seconds when it writes the part) is subtracted from the arrival time, and so is the
+configured ``camera.latency_s`` (then only the network's share); see
+:class:`~marknav.vision.sources.GrabbedSource`.
 """
 
 from __future__ import annotations
@@ -52,6 +57,21 @@ MAX_FRAME_BYTES = 16 * 1024 * 1024
 _BOUNDARY = re.compile(r'boundary="?([^";]+)"?', re.IGNORECASE)
 
 
+#: The part header (lower case) in which ``marknav serve-camera`` sends a frame's age.
+CAPTURE_AGE_KEY = b"x-capture-age"
+#: A reported age beyond this (s) is not believed (a frame that old is useless anyway).
+MAX_REPORTED_AGE_S = 10.0
+
+
+def _age(value: bytes) -> float | None:
+    """An ``X-Capture-Age`` value in seconds, or ``None`` if it is not a sane one."""
+    try:
+        age = float(value.strip())
+    except ValueError:
+        return None
+    return age if 0.0 <= age <= MAX_REPORTED_AGE_S else None
+
+
 class _NotMjpeg(Exception):
     """The URL serves something this reader does not handle: let OpenCV try."""
 
@@ -61,8 +81,9 @@ class MjpegHttpSource(GrabbedSource):
     frame. :class:`InputError` if it cannot be opened or delivers no frame in time."""
 
     def __init__(self, url: str, *, clock: Clock | None = None,
-                 timeout_s: float = DEFAULT_TIMEOUT_S, open_timeout_s: float = 5.0) -> None:
-        super().__init__(url, clock=clock, timeout_s=timeout_s)
+                 timeout_s: float = DEFAULT_TIMEOUT_S, open_timeout_s: float = 5.0,
+                 latency_s: float = 0.0) -> None:
+        super().__init__(url, clock=clock, timeout_s=timeout_s, latency_s=latency_s)
         parts = urlsplit(url)
         if parts.scheme.lower() not in ("http", "https") or not parts.hostname:
             raise InputError("not an http:// or https:// URL", file=url)
@@ -77,6 +98,7 @@ class MjpegHttpSource(GrabbedSource):
         self._resp: http.client.HTTPResponse | None = None
         self._boundary: bytes | None = None  # None: a snapshot URL
         self._pending: Image | None = None
+        self._part_age_s: float | None = None  # the last part's X-Capture-Age
         try:
             self._connect()  # on this thread: Ctrl-C ends the wait at once
             self._pending = self._next_image()
@@ -152,12 +174,15 @@ class MjpegHttpSource(GrabbedSource):
         if line.startswith(self._boundary + b"--"):
             raise ConnectionError("the stream ended")
         length: int | None = None
+        self._part_age_s = None
         for _ in range(MAX_HEADERS + 1):
             line = self._readline()
             if not line:
                 break
             key, _, value = line.partition(b":")
-            if key.strip().lower() == b"content-length":
+            if key.strip().lower() == CAPTURE_AGE_KEY:
+                self._part_age_s = _age(value)
+            elif key.strip().lower() == b"content-length":
                 try:
                     length = int(value.strip())
                 except ValueError:
@@ -178,11 +203,14 @@ class MjpegHttpSource(GrabbedSource):
     def _grab_image(self) -> Image | None:
         if self._pending is not None:
             image, self._pending = self._pending, None
+            self._reported_age_s = self._part_age_s  # the opening frame, read moments ago
             return image
         try:
             if self._resp is None:
                 self._connect()
-            return self._next_image()
+            image = self._next_image()
+            self._reported_age_s = self._part_age_s
+            return image
         except (OSError, http.client.HTTPException, InputError, _NotMjpeg) as exc:
             log.debug("camera %s: %s", self.name, exc)
             self._disconnect()
@@ -200,10 +228,12 @@ class MjpegHttpSource(GrabbedSource):
 
 
 def open_http_source(url: str, *, clock: Clock | None = None,
-                     timeout_s: float = DEFAULT_TIMEOUT_S) -> FrameSource:
+                     timeout_s: float = DEFAULT_TIMEOUT_S,
+                     latency_s: float = 0.0) -> FrameSource:
     """An MJPEG or snapshot URL read by :class:`MjpegHttpSource`; anything else by OpenCV."""
     try:
-        return MjpegHttpSource(url, clock=clock, timeout_s=timeout_s)
+        return MjpegHttpSource(url, clock=clock, timeout_s=timeout_s, latency_s=latency_s)
     except _NotMjpeg as exc:
         log.info("camera %s: %s; reading it through OpenCV", url, exc)
-        return LiveCaptureSource(url, url, clock=clock, timeout_s=timeout_s)
+        return LiveCaptureSource(url, url, clock=clock, timeout_s=timeout_s,
+                                 latency_s=latency_s)
