@@ -229,6 +229,11 @@ class SimEnvironment:
                             right_wheel=on("overcurrent", "right"))
         sim.set_low_battery(any(e.fault == "low_battery" for e in active))
         self._held_bump = (on("bump", "left"), on("bump", "right"))
+        # the bumper bits at once (contacts are added after the step's motion)
+        left, right = self._held_bump
+        if left or right or self._bumper != (False, False):
+            sim.set_bump(left, right)
+            self._bumper = (left, right)
 
     def _step(self, dt: float) -> None:
         self._apply_events(self.clock.now() + dt)
