@@ -10,8 +10,8 @@ What it implements, from the Create Open Interface specifications (``shared/refe
 - Packet 7 (*Bumps and Wheel Drops*), packets 9-12 (*Cliff Left / Front Left / Front Right /
   Right*), packet 14 (*Wheel Overcurrents*), packets 25/26 (*Battery Charge / Capacity*: a charge
   under :data:`LOW_BATTERY_FRACTION` of capacity is a fault) and packet 35 (*OI Mode*: 0 off,
-  1 passive, 2 safe, 3 full) are the inputs, read through the small :class:`SafetyInputs` protocol so this module does
-  not depend on the wire decoder.
+  1 passive, 2 safe, 3 full) are the inputs, read through the small :class:`SafetyInputs`
+  protocol so this module does not depend on the wire decoder.
 - *Drive Direct* (opcode 145, ±500 mm/s per wheel) is the output, through :class:`WheelSink`.
   Speeds over the limit are scaled together (the curve is kept) and rounded to whole mm/s.
 

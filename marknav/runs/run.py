@@ -127,7 +127,7 @@ def make_environment(mission: Mission, req: RunRequest, seed: int) -> Environmen
     camera = open_source(req.camera, timeout_s=0.0)
     try:
         driver = CreateDriver(
-            req.robot, model=mission.robot.model,
+            req.robot, model=mission.robot.model, baudrate="auto",
             command_timeout_s=mission.safety.command_timeout_s,
             sensor_timeout_s=mission.safety.sensor_timeout_s,
             wheel_base_mm=mission.robot.wheel_base_mm,

@@ -140,7 +140,7 @@ class SimEnvironment:
         self.driver = CreateDriver(
             self._url, model=model, clock=self.clock, command_timeout_s=command_timeout_s,
             sensor_timeout_s=sensor_timeout_s, wheel_base_mm=wheel_base_mm, start_pose=start,
-            first_frame_timeout_s=None, settle_s=0.0, reader_thread=False,
+            first_frame_timeout_s=None, settle_s=0.0, reader_thread=False, wake_pulse_s=0.0,
         )
         self.truth = GroundTruth()
         self.camera = SimCamera(world, palette, pose_fn=lambda: self.create.pose,
