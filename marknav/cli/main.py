@@ -21,6 +21,7 @@ from marknav.cli import (
     bench,
     calibrate,
     calibrate_camera,
+    calibrate_odometry,
     detect,
     evaluate,
     random_mission,
@@ -41,7 +42,7 @@ log = logging.getLogger(__name__)
 #: The modules that each register one sub-command, in the order ``--help`` shows them.
 COMMANDS: tuple[ModuleType, ...] = (
     run, validate, tree, evaluate, replay, tune, random_mission, bench, detect, calibrate,
-    calibrate_camera, sim_robot, schema, serve_camera, serve_robot,
+    calibrate_camera, calibrate_odometry, sim_robot, schema, serve_camera, serve_robot,
 )
 
 

@@ -141,6 +141,8 @@ class CreateDriver:
         brc_line: the modem line (``"rts"``, ``"dtr"``) the cable wires to the robot's Baud
             Rate Change pin, or ``None``: wake and keep-alive pulses go there.
         wake_pulse_s: length of the BRC pulse ``connect`` sends (wall seconds).
+        odometry_scale: ground travel per mm the encoders report (the mission's
+            ``robot.odometry_scale``).
         clock: time for the safety watchdogs and sensor timestamps (default monotonic).
         mode: ``OIMode.SAFE`` (default) or ``OIMode.FULL``.
         command_timeout_s, sensor_timeout_s: the safety watchdogs.
@@ -174,6 +176,7 @@ class CreateDriver:
         reader_thread: bool = True,
         brc_line: str | None = "rts",
         wake_pulse_s: float = WAKE_PULSE_S,
+        odometry_scale: float = 1.0,
     ) -> None:
         try:
             self.model = Model.parse(model)
@@ -201,7 +204,8 @@ class CreateDriver:
         self._open_port = open_port
         self.reader_thread = reader_thread
         self._start_pose = start_pose
-        self.odometry = Odometry(self.model, wheel_base_mm=wheel_base_mm, pose=start_pose)
+        self.odometry = Odometry(self.model, wheel_base_mm=wheel_base_mm, pose=start_pose,
+                                 scale=odometry_scale)
         self.safety = SafetyLayer(_WheelSink(self), clock=self.clock,
                                   command_timeout_s=command_timeout_s,
                                   sensor_timeout_s=sensor_timeout_s)

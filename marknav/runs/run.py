@@ -115,6 +115,7 @@ def make_environment(mission: Mission, req: RunRequest, seed: int) -> Environmen
             command_timeout_s=mission.safety.command_timeout_s,
             sensor_timeout_s=mission.safety.sensor_timeout_s,
             wheel_base_mm=mission.robot.wheel_base_mm,
+            odometry_scale=mission.robot.odometry_scale,
         )
     if req.camera == "sim":
         raise InputError("--camera sim needs --robot sim; give a real camera (--camera 0, a "
@@ -128,6 +129,7 @@ def make_environment(mission: Mission, req: RunRequest, seed: int) -> Environmen
     try:
         driver = CreateDriver(
             req.robot, model=mission.robot.model, baudrate="auto",
+            odometry_scale=mission.robot.odometry_scale,
             command_timeout_s=mission.safety.command_timeout_s,
             sensor_timeout_s=mission.safety.sensor_timeout_s,
             wheel_base_mm=mission.robot.wheel_base_mm,

@@ -113,6 +113,7 @@ class SimEnvironment:
         command_timeout_s: float = 0.3,
         sensor_timeout_s: float = 0.2,
         wheel_base_mm: float | None = None,
+        odometry_scale: float = 1.0,
     ) -> None:
         self.world = world
         self.palette = palette
@@ -141,6 +142,7 @@ class SimEnvironment:
             self._url, model=model, clock=self.clock, command_timeout_s=command_timeout_s,
             sensor_timeout_s=sensor_timeout_s, wheel_base_mm=wheel_base_mm, start_pose=start,
             first_frame_timeout_s=None, settle_s=0.0, reader_thread=False, wake_pulse_s=0.0,
+            odometry_scale=odometry_scale,
         )
         self.truth = GroundTruth()
         self.camera = SimCamera(world, palette, pose_fn=lambda: self.create.pose,
