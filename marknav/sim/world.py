@@ -285,7 +285,8 @@ class Conditions(_Strict):
     - ``exposure_ms``: exposure time, ms: the robot turning during it smears the image
       sideways by the angle turned times the focal length (motion blur). 0: none.
     - ``exposure_drift``: amplitude of the auto-exposure's slow brightness swing (fraction of
-      the brightness), a sine of period ``exposure_period_s`` seconds.
+      the brightness), a sine of period ``exposure_period_s``.
+    - ``exposure_period_s``: period of the exposure drift, s.
     - ``mark_saturation``: saturation of the marks' paint relative to full (printed marks are
       not fully saturated: 0.75..1 on camera).
     - ``mark_saturation_spread``: each mark's saturation differs by up to ± this fraction.
