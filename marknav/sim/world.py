@@ -656,6 +656,7 @@ def generate_world(
     half_fov_deg: float = DEFAULT_HALF_FOV_DEG,
     start: RobotStart | None = None,
     clutter: int = Background().clutter,
+    patches: bool = False,
 ) -> World:
     """A world for ``route`` (colours in order) that the route can be driven through.
 
@@ -669,8 +670,10 @@ def generate_world(
     as many again the mark goes on the axis, at the longest spacing. With
     ``conditions="randomised"`` the image/wheel conditions (:func:`random_conditions`) and every
     mark's yaw (±``MARK_YAW_MAX_DEG``) are drawn too, and from streams of their own the
-    realism conditions (:func:`random_realism`) and friction patches on the course
-    (:func:`random_patches`). Same arguments and seed → same world.
+    realism conditions (:func:`random_realism`) and, with ``patches``, friction patches on the
+    course (:func:`random_patches`: not drawn by default — a patch under one wheel during a
+    bypass, with the mark out of view, turns the robot where odometry cannot see it; see
+    docs/simulator-realism.md). Same arguments and seed → same world.
     """
     if clearance_mm <= 0 or radius_mm <= 0 or bypass_distance_mm <= 0:
         raise ValueError("clearance, radius and bypass distance must be positive")
@@ -768,14 +771,15 @@ def generate_world(
         origins = new_origins[:4] if len(new_origins) <= 4 else [
             new_origins[0], new_origins[1], new_origins[-2], new_origins[-1]]
         sign = -sign
-    patches = (random_patches(np.random.default_rng([int(seed), 0xF41C]),
-                              [m.xy for m in marks], (p0.x, p0.y)) if randomised else ())
+    drawn = (random_patches(np.random.default_rng([int(seed), 0xF41C]),
+                            [m.xy for m in marks], (p0.x, p0.y)) if randomised and patches
+             else ())
     return World(
         marks=tuple(marks),
         robot=robot,
         conditions=cond,
         background=Background(seed=int(seed), clutter=clutter),
-        patches=patches,
+        patches=drawn,
         course=tuple(range(len(marks))),
     )
 
