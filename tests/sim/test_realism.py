@@ -181,6 +181,11 @@ def test_randomised_worlds_draw_realism_from_their_own_stream() -> None:
     c = a.conditions
     assert 15.0 <= c.frame_rate_hz <= 30.0 and 0.75 <= c.mark_saturation <= 1.0
     assert 330.0 <= c.top_speed_mm_s <= 500.0 and c.accel_mm_s2 >= 400.0
+    # patches only when asked: unseen by odometry, they turn the robot during bypasses
+    assert a.patches == ()
+    with_patches = generate_world(["red", "red"], seed=4, clearance_mm=300.0,
+                                  conditions="randomised", patches=True)
+    assert with_patches.marks == a.marks and with_patches.conditions == a.conditions
     keys = set(random_realism(np.random.default_rng(0)))
     assert keys <= set(Conditions.model_fields)
 
