@@ -52,13 +52,13 @@ MODULES: dict[str, Module] = {
     "bypass": Module("marknav/behaviours/bypass.py", (
         "tests/behaviours/test_bypass.py", "tests/behaviours/test_bypass_edges.py",
         "tests/behaviours/test_route.py")),
-    "oi": Module("marknav/drivers/oi.py", (
+    "oi": Module("marknav/robot/oi.py", (
         "tests/drivers/test_oi.py", "tests/drivers/test_oi_edges.py",
         "tests/drivers/test_stream.py", "tests/drivers/test_driver.py")),
-    "driver": Module("marknav/drivers/driver.py", (
+    "driver": Module("marknav/robot/driver.py", (
         "tests/drivers/test_driver.py", "tests/drivers/test_driver_lifecycle.py",
         "tests/drivers/test_driver_odometry.py")),
-    "safety": Module("marknav/drivers/safety.py", (
+    "safety": Module("marknav/robot/safety.py", (
         "tests/drivers/test_safety.py", "tests/behaviours/test_safety.py",
         "tests/testing/test_fake_robot.py", "tests/drivers/test_driver.py")),
     # the ground truth per waypoint, from the true path alone

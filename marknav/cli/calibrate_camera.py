@@ -4,8 +4,15 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
-from marknav.vision.chessboard import calibrate_images, parse_board, plot_calibration
+from marknav.core.outputs import check_output_file
+from marknav.vision.chessboard import (
+    calibrate_images,
+    parse_board,
+    plot_calibration,
+    write_opencv_yml,
+)
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -28,14 +35,23 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                    help="print fx, fy, cx, cy, dist, rms, images_used as JSON")
     p.add_argument("--plot", metavar="FILE.png",
                    help="draw the corners found and the lens's distortion field")
+    p.add_argument("--opencv-yml", metavar="FILE.yml",
+                   help="also write the result in OpenCV's FileStorage format (camera_matrix, "
+                        "distortion_coefficients, image_width, image_height, "
+                        "avg_reprojection_error), as OpenCV's calibration sample writes it")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     board = parse_board(args.board)
+    for option, path in (("--plot", args.plot), ("--opencv-yml", args.opencv_yml)):
+        if path:
+            check_output_file(Path(path), option=option)
     cal = calibrate_images(list(args.images), board, args.square_mm)
     if args.plot:
         plot_calibration(cal, args.plot)
+    if args.opencv_yml:
+        write_opencv_yml(cal, args.opencv_yml)
     if args.json:
         print(json.dumps(cal.to_dict(), indent=2))
         return 0
@@ -50,6 +66,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"# RMS reprojection error = {cal.rms_px:.4f} px")
     worst = sorted(zip(cal.per_view_px, cal.images_used, strict=False), reverse=True)[:3]
     print("# worst views: " + ", ".join(f"{p} {e:.3f} px" for e, p in worst))
+    if args.opencv_yml:
+        print(f"# OpenCV FileStorage written: {args.opencv_yml}")
     print("# paste under camera: in your mission")
     print(cal.yaml_snippet())
     return 0

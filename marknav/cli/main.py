@@ -24,6 +24,7 @@ from marknav.cli import (
     calibrate_odometry,
     detect,
     evaluate,
+    palette,
     random_mission,
     replay,
     run,
@@ -41,8 +42,9 @@ log = logging.getLogger(__name__)
 
 #: The modules that each register one sub-command, in the order ``--help`` shows them.
 COMMANDS: tuple[ModuleType, ...] = (
-    run, validate, tree, evaluate, replay, tune, random_mission, bench, detect, calibrate,
-    calibrate_camera, calibrate_odometry, sim_robot, schema, serve_camera, serve_robot,
+    run, validate, tree, evaluate, replay, tune, random_mission, bench, detect, palette,
+    calibrate, calibrate_camera, calibrate_odometry, sim_robot, schema, serve_camera,
+    serve_robot,
 )
 
 

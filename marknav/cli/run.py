@@ -47,7 +47,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                    help="top-down picture of the run (simulator only)")
     p.add_argument("--frames", type=float, metavar="HZ",
                    help="also save camera frames as JPEG files beside the run log, at most HZ "
-                        "per second (e.g. 2), so a real-robot run can be looked at afterwards")
+                        "per second (e.g. 2), so a real-robot run can be looked at afterwards; "
+                        "with --viewer/--record, also the camera image rate there (default "
+                        "5 per second of run time, JPEG-compressed)")
     p.add_argument("--viewer", action="store_true",
                    help="stream the run live to the Rerun viewer: camera with detections, "
                         "top-down map, range and wheel plots, tree status (extra: viewer)")

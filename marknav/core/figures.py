@@ -15,7 +15,7 @@ def save_figure(fig: Any, out: str | Path) -> None:
 
     fig.tight_layout()
     try:
-        fig.savefig(str(out))
+        fig.savefig(str(out), bbox_inches="tight")  # legends placed outside the axes
     except OSError as exc:
         raise InputError(f"cannot write the plot: {exc}", file=str(out)) from None
     finally:

@@ -34,8 +34,9 @@ __all__ = ["HORIZON_SLACK_PX", "ROBOT_FLOOR_PX", "ROBOT_TINT_LIMIT", "CameraDete
 #: Rows added to the horizon tolerance for the error of a measured centre.
 HORIZON_SLACK_PX = 4.0
 #: The smallest minimum radius the robot uses (px): the detector finds marks down to 2.5 px,
-#: but below 5 px their range is off by 10-16 % (README, *Small cameras*) and a 160×120
-#: camera's slalom goes wrong steering by them (wrong side, seed 5 of the camera-run test).
+#: but below 5 px their range is off by 10-16 % (docs/explanation/detector.md, *Small cameras*)
+#: and a 160×120 camera's slalom goes wrong steering by them (wrong side, seed 5 of the
+#: camera-run test).
 ROBOT_FLOOR_PX = 5.0
 
 

@@ -340,8 +340,8 @@ class Camera(BaseModel):
         description="Learn the range law while driving (odometry measures how far the robot "
         "drove toward a mark that stands still), starting from camera.range (or the "
         "intrinsics' pinhole law); the learnt law is in the report, ready to paste. On by "
-        "default: a law 25 % off then does as well as a calibrated one (README). false keeps "
-        "the law fixed.",
+        "default: a law 25 % off then does as well as a calibrated one "
+        "(docs/how-to/calibrate.md). false keeps the law fixed.",
     )
 
     @model_validator(mode="before")

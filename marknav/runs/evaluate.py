@@ -710,7 +710,9 @@ def plot_accuracy(result: AccuracyResult, out: str | Path) -> None:
     ax.set_xlabel("distance ahead y [mm]")
     ax.set_ylabel("position error e (eq. 40) [mm]")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
+    # below the axes: the curves rise to the upper right corner, where 'best' would put it
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=3,
+              frameon=False)
     ax2.plot(y, 100.0 * med / y, "o-")
     ax2.set_xlabel("distance ahead y [mm]")
     ax2.set_ylabel("median error [% of distance]")

@@ -294,10 +294,11 @@ def _recorder(req: RunRequest, root: py_trees.behaviour.Behaviour, env: Environm
 
     sinks: list[Any] = []
     if req.viewer or req.record_path is not None:
-        from marknav.runs.viewer import RerunSink
+        from marknav.runs.viewer import RECORD_FRAMES_HZ, RerunSink
 
         sinks.append(RerunSink(req.mission, getattr(env, "world", None), spawn=req.viewer,
-                               path=req.record_path))
+                               path=req.record_path,
+                               frames_hz=req.frames_hz or RECORD_FRAMES_HZ))
     view = make_view(req.out, req.tree_style, title=f"marknav run {req.mission.name}")
     if view is None and not sinks and events.path is None:
         return None

@@ -315,6 +315,20 @@ def best_yaml(result: TuneResult) -> str:
     return head + "\n" + yaml.safe_dump(_nested(b.params), sort_keys=False).rstrip()
 
 
+#: Unit of a mission key, by the suffix the mission schema gives it.
+_KEY_UNITS = (("_mm_s", "mm/s"), ("_deg_s", "deg/s"), ("_mm", "mm"), ("_deg", "deg"),
+              ("_hz", "Hz"), ("_s", "s"), ("_px", "px"))
+
+
+def key_label(key: str) -> str:
+    """An axis label for a mission key: the key and, where its suffix says it, its unit
+    (``navigation.clearance_mm`` → ``navigation.clearance_mm [mm]``)."""
+    for suffix, unit in _KEY_UNITS:
+        if key.endswith(suffix):
+            return f"{key} [{unit}]"
+    return f"{key} [as in the mission]"
+
+
 def plot_trials(result: TuneResult, params: Sequence[Param], out: Path) -> None:
     """Left: each trial's success rate and median time, and the best value so far; right: the
     first two parameters of every trial, coloured by success rate (the best one starred)."""
@@ -330,7 +344,7 @@ def plot_trials(result: TuneResult, params: Sequence[Param], out: Path) -> None:
     n = [t.number for t in ts]
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11.0, 4.4), dpi=100)
     ax.plot(n, [100 * t.success_rate for t in ts], "o", color="tab:green", label="success %")
-    ax.set_xlabel("trial")
+    ax.set_xlabel("trial [number]")
     ax.set_ylabel("success rate [%]", color="tab:green")
     ax.set_ylim(-5, 105)
     axt = ax.twinx()
@@ -344,6 +358,9 @@ def plot_trials(result: TuneResult, params: Sequence[Param], out: Path) -> None:
              label="median time of the best so far")
     axt.set_ylabel("median mission time [s]", color="tab:blue")
     ax.grid(True, alpha=0.3)
+    handles = ax.get_legend_handles_labels()[0] + axt.get_legend_handles_labels()[0]
+    ax.legend(handles=handles, fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.16),
+              ncol=3, frameon=False)
     keys = [p.key for p in params]
     xs = [t.params.get(keys[0]) for t in ts]
     ys = [t.params.get(keys[1]) for t in ts] if len(keys) > 1 else [t.median_time_s for t in ts]
@@ -353,9 +370,9 @@ def plot_trials(result: TuneResult, params: Sequence[Param], out: Path) -> None:
                 [result.best.params.get(keys[1]) if len(keys) > 1
                  else result.best.median_time_s], marker="*", s=300, facecolors="none",
                 edgecolors="k", label=f"best (trial {result.best.number})")
-    ax2.set_xlabel(keys[0])
-    ax2.set_ylabel(keys[1] if len(keys) > 1 else "median mission time [s]")
-    ax2.legend(fontsize=8)
+    ax2.set_xlabel(key_label(keys[0]))
+    ax2.set_ylabel(key_label(keys[1]) if len(keys) > 1 else "median mission time [s]")
+    ax2.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.16), frameon=False)
     fig.colorbar(sc, ax=ax2, label="success rate [%]")
     fig.suptitle(f"marknav tune {result.mission}: {len(ts)} trials", fontsize=10)
     save_figure(fig, out)

@@ -235,5 +235,7 @@ def plot_fit(fit: PowerFit, out: str | Path, title: str = "Range calibration") -
     ax.set_ylabel("distance d [mm]")
     ax.set_title(title)
     ax.grid(True, alpha=0.3)
-    ax.legend()
+    # below the axes: inside, it would sit on the measured rows or the curve
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, fontsize=8,
+              frameon=False)
     save_figure(fig, out)

@@ -30,7 +30,7 @@ from marknav.core.figures import save_figure
 from marknav.vision.undistort import Intrinsics
 
 __all__ = ["MIN_IMAGES", "BoardView", "CameraCalibration", "calibrate_images", "find_board",
-           "parse_board"]
+           "parse_board", "write_opencv_yml"]
 
 log = logging.getLogger(__name__)
 
@@ -86,6 +86,40 @@ class CameraCalibration:
         dist = ", ".join(f"{c:.6g}" for c in i.dist)
         return (f"intrinsics: {{fx: {i.fx:.2f}, fy: {i.fy:.2f}, cx: {i.cx:.2f}, "
                 f"cy: {i.cy:.2f}, dist: [{dist}]}}")
+
+
+def write_opencv_yml(cal: CameraCalibration, out: str | Path) -> None:
+    """Write ``cal`` in OpenCV's FileStorage YAML, with the node names of OpenCV's own
+    calibration sample (``samples/cpp/calibration.cpp``): ``camera_matrix`` (3×3),
+    ``distortion_coefficients`` (5×1: k1, k2, p1, p2, k3), ``image_width``, ``image_height``
+    (px), ``avg_reprojection_error`` (px), ``per_view_reprojection_errors`` (px),
+    ``nframes``, ``board_width``, ``board_height`` (inner corners) and ``square_size`` (mm;
+    OpenCV's sample leaves the unit to the user). ``cv2.FileStorage(path, READ)`` reads it."""
+    name = str(out)
+    try:
+        fs = cv2.FileStorage(name, cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_FORMAT_YAML)
+    except cv2.error as exc:
+        raise InputError(f"cannot write: {str(exc).strip()}", file=name) from None
+    if not fs.isOpened():
+        raise InputError("cannot write the OpenCV calibration file", file=name)
+    i = cal.intrinsics
+    w, h = cal.image_size
+    try:
+        fs.write("nframes", len(cal.images_used))
+        fs.write("image_width", int(w))
+        fs.write("image_height", int(h))
+        fs.write("board_width", int(cal.board[0]))
+        fs.write("board_height", int(cal.board[1]))
+        fs.write("square_size", float(cal.square_mm))
+        fs.write("camera_matrix", np.asarray(i.matrix, dtype=np.float64))
+        fs.write("distortion_coefficients",
+                 np.asarray(i.dist, dtype=np.float64).reshape(-1, 1))
+        fs.write("avg_reprojection_error", float(cal.rms_px))
+        if cal.per_view_px:
+            fs.write("per_view_reprojection_errors",
+                     np.asarray(cal.per_view_px, dtype=np.float64).reshape(-1, 1))
+    finally:
+        fs.release()
 
 
 def _read_grey(path: str) -> npt.NDArray[np.uint8]:
@@ -166,7 +200,7 @@ def plot_calibration(cal: CameraCalibration, out: str | Path) -> None:
                      np.ones(len(ideal))], axis=1)
     seen, _ = cv2.projectPoints(norm, np.zeros(3), np.zeros(3), i.matrix, i.coefficients)
     seen = seen.reshape(-1, 2)
-    fig, ax = plt.subplots(figsize=(7.0, 5.6), dpi=100)
+    fig, ax = plt.subplots(figsize=(9.6, 5.6), dpi=100)
     ax.quiver(ideal[:, 0], ideal[:, 1], seen[:, 0] - ideal[:, 0], seen[:, 1] - ideal[:, 1],
               angles="xy", scale_units="xy", scale=1.0, color="0.4", width=0.002,
               label="distortion (ideal → imaged)")
@@ -178,7 +212,11 @@ def plot_calibration(cal: CameraCalibration, out: str | Path) -> None:
     ax.set_xlim(0, w)
     ax.set_ylim(h, 0)
     ax.set_aspect("equal")
+    ax.set_xlabel("image column u [px]")
+    ax.set_ylabel("image row v [px]")
     ax.set_title(f"fx {i.fx:.1f}  fy {i.fy:.1f}  cx {i.cx:.1f}  cy {i.cy:.1f}  "
-                 f"RMS {cal.rms_px:.3f} px")
-    ax.legend(fontsize=6, loc="upper right", ncol=2)
+                 f"RMS {cal.rms_px:.3f} px", fontsize=10)
+    # beside the image, never on the corners or the arrows; per-view RMS in px
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), ncol=1,
+              title="corners per view (RMS)", title_fontsize=7, frameon=False)
     save_figure(fig, out)

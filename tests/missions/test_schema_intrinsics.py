@@ -30,7 +30,7 @@ def test_intrinsics_load_and_give_the_focal_length(tmp_path: Path) -> None:
     i = m.camera.intrinsics
     assert i is not None and (i.fx, i.cy, len(i.dist)) == (536.07, 235.54, 4)
     assert m.camera.focal_px == pytest.approx(536.045)  # not written: from the intrinsics
-    assert m.camera.learn_range is True  # on by default (issue 13, session 3)
+    assert m.camera.learn_range is True  # on by default (issue 13)
 
 
 @pytest.mark.parametrize(("cx", "dist", "message"), [

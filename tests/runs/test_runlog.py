@@ -149,15 +149,23 @@ def _rows_per_entity(rrd: Path) -> dict[str, int]:
     return dict(rows)
 
 
-def test_the_recording_has_one_image_per_frame_and_the_tree_every_tick(
+def test_the_recording_has_images_at_the_frames_rate_and_every_tree_change(
         slalom_run: dict[str, Any], tmp_path: Path) -> None:
     rows = _rows_per_entity(slalom_run["folder"] / "run.rrd")
     records = slalom_run["records"]
     frames = sum(1 for r in records if r["kind"] == "frame")
+    saved = sum(1 for r in records if "image" in r)  # --frames 2: files beside the log
     ticks = slalom_run["result"].report.ticks
-    assert rows["/camera/image"] == rows["/camera/detections"] == frames
-    assert rows["/tree"] == rows["/map/robot"] == rows["/map/truth"] == ticks
-    assert rows["/plots/wheels/left"] == ticks
+    sim_time = slalom_run["result"].report.sim_time_s
+    # --frames 2 is the recording's image rate too: the same frames as the files, and the
+    # detections drawn on each of them
+    assert rows["/camera/image"] == rows["/camera/detections"] == saved
+    assert 2.0 * sim_time - 2 <= saved <= 2.0 * sim_time + 2 < frames
+    assert rows["/map/seen"] == frames  # every frame's marks on the map
+    assert rows["/map/robot"] == rows["/map/truth"] == rows["/plots/wheels/left"] == ticks
+    # the tree text: every status change (one events row each, live) plus the panel at 2 Hz
+    status_changes = rows["/events"]
+    assert status_changes <= rows["/tree"] <= status_changes + 2.0 * sim_time + 2 < ticks
     assert rows["/map/marks"] == rows["/map/walls"] == 1  # static
     plans = sum(1 for k in rows if k.startswith("/map/plan/"))
     assert plans == len(slalom_run["result"].plans)
@@ -165,8 +173,30 @@ def test_the_recording_has_one_image_per_frame_and_the_tree_every_tick(
     out = tmp_path / "from-log.rrd"
     assert main(["view", str(slalom_run["folder"]), "--save", str(out)]) == 0
     again = _rows_per_entity(out)
-    assert again["/tree"] == ticks and again["/camera/detections"] == frames
-    assert again["/camera/image"] == sum(1 for r in records if "image" in r)
+    assert again["/tree"] == ticks and again["/map/seen"] == frames
+    assert again["/camera/image"] == again["/camera/detections"] == saved
+
+
+def test_a_recording_keeps_five_jpeg_frames_a_second_by_default(tmp_path: Path) -> None:
+    pytest.importorskip("rerun")
+    import py_trees
+
+    from marknav.runs.viewer import RECORD_FRAMES_HZ, RerunSink
+
+    mission = load_mission(str(SLALOM))
+    out = tmp_path / "five.rrd"
+    sink = RerunSink(mission, None, path=out)
+    rng = np.random.default_rng(0)
+    image = rng.integers(0, 255, (120, 160, 3), dtype=np.uint8)
+    state = TreeState.of_tree(py_trees.behaviours.Success(name="Done"))
+    for n in range(80):  # 4 s at 20 Hz, one frame per tick
+        sink.tick(n / 20.0, {"n": n, "panel": {}}, [({"marks": []}, image)], state)
+    sink.close()
+    assert RECORD_FRAMES_HZ == 5.0
+    assert sink.frames == 80 and sink.images == 20
+    rows = _rows_per_entity(out)
+    assert rows["/camera/image"] == 20
+    assert b"image/jpeg" in out.read_bytes()
 
 
 def test_without_the_extra_the_viewer_options_exit_2_naming_it(

@@ -147,7 +147,7 @@ def test_noisy_frames_with_poles_still_take_the_plain_path() -> None:
 
 
 def reference_inset(poly: FloatArray, by: float) -> FloatArray:
-    """The NumPy inset the renderer used before (session 6)."""
+    """The NumPy inset the renderer used before its compiled pass."""
     n = len(poly)
     nxt, prv = poly[np.roll(np.arange(n), -1)], poly[np.roll(np.arange(n), 1)]
     x, y = poly[:, 0], poly[:, 1]

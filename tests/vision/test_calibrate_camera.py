@@ -78,3 +78,38 @@ def test_bad_inputs_exit_2_naming_the_file(capsys: pytest.CaptureFixture[str],
     err = _fails(capsys, *LEFT[:3], "--board", "9by6", "--square-mm", "25")
     assert "--board: expected COLSxROWS" in err
     assert "Traceback" not in err
+
+
+def test_opencv_yml_is_read_back_by_opencv(capsys: pytest.CaptureFixture[str],
+                                           tmp_path: Path) -> None:
+    out = tmp_path / "left.yml"
+    assert main(["calibrate-camera", *LEFT, "--board", "9x6", "--square-mm", "25", "--json",
+                 "--opencv-yml", str(out)]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    fs = cv2.FileStorage(str(out), cv2.FILE_STORAGE_READ)
+    assert fs.isOpened()
+    k = fs.getNode("camera_matrix").mat()
+    dist = fs.getNode("distortion_coefficients").mat()
+    width = fs.getNode("image_width").real()
+    height = fs.getNode("image_height").real()
+    rms = fs.getNode("avg_reprojection_error").real()
+    per_view = fs.getNode("per_view_reprojection_errors").mat()
+    fs.release()
+    assert k.shape == (3, 3) and dist.shape == (5, 1)
+    assert (k[0, 0], k[1, 1], k[0, 2], k[1, 2]) == pytest.approx(
+        (printed["fx"], printed["fy"], printed["cx"], printed["cy"]), rel=1e-12)
+    assert k[2, 2] == 1.0 and k[0, 1] == 0.0
+    assert dist.ravel().tolist() == pytest.approx(printed["dist"], rel=1e-12)
+    assert (width, height) == (640, 480)
+    assert rms == pytest.approx(printed["rms"], rel=1e-12)
+    assert per_view.shape == (13, 1)
+    # OpenCV's own reference for these images agrees with what was written
+    assert k[0, 0] == pytest.approx(_reference()[0], rel=0.01)
+
+
+def test_opencv_yml_to_a_missing_folder_fails_before_calibrating(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    bad = tmp_path / "no" / "such" / "left.yml"
+    err = _fails(capsys, *LEFT[:3], "--board", "9x6", "--square-mm", "25",
+                 "--opencv-yml", str(bad))
+    assert f"{bad}" in err and "--opencv-yml" in err and "does not exist" in err

@@ -68,8 +68,8 @@ def _opencv_products(image: np.ndarray, balance: np.ndarray | None, sat_min: int
                      v_floor: int, gate_lut: np.ndarray | None, kernel: np.ndarray | None,
                      band: tuple[float, float] | None,
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list | None]:
-    """The gated search products as OpenCV calls made them (session 6): the seeds from the
-    quarter sample, each rectangle resized, balanced, converted and thresholded."""
+    """The gated search products as OpenCV calls made them before the compiled pass: the seeds
+    from the quarter sample, each rectangle resized, balanced, converted and thresholded."""
     h, w = image.shape[:2]
     sw, sh = w // 2, h // 2
     seeds = gate._classify(gate.coarse_sample(image), balance, sat_min, v_floor, gate_lut,

@@ -1,4 +1,4 @@
-"""Detector behaviour on what real rooms and photographs add (issue #10, session 3): glows
+"""Detector behaviour on what real rooms and photographs add (issue #10): glows
 are not marks, readings of one mark do not suppress it, a coloured surface's clipped highlights
 are not the light's white."""
 

@@ -175,7 +175,7 @@ def _arc(rng: np.random.Generator, n: int, span_deg: float) -> np.ndarray:
 
 
 def _gram_circle(pts: np.ndarray) -> tuple[float, float, float] | None:
-    """The Kåsa fit as the arc path made it before (session 5): one Gram matrix product."""
+    """The Kåsa fit as the arc path made it before it was compiled: one Gram matrix product."""
     n = len(pts)
     mean = pts.sum(axis=0) / n
     cols = np.empty((n, 3), np.float64)
@@ -269,7 +269,7 @@ def test_runs_are_the_cyclic_true_stretches() -> None:
 
 def _integral_quadrants_differ(roi: np.ndarray, back: np.ndarray, cx: int, cy: int,
                                spread: float) -> bool:
-    """The test as the whole-mark stage made it before (session 5): two integral images."""
+    """The test as the whole-mark stage made it before it was compiled: two integral images."""
     h, w = roi.shape[:2]
     count = cv2.integral(back, sdepth=cv2.CV_32S)
     total = cv2.integral(cv2.bitwise_and(roi, roi, mask=back), sdepth=cv2.CV_32S)
@@ -387,7 +387,7 @@ def test_an_installation_without_a_writable_cache_still_detects(tmp_path: Path) 
 
 def _opencv_seeds(image: np.ndarray, gains: tuple[float, float, float], sat_min: int,
                   v_floor: int, gate: np.ndarray) -> np.ndarray:
-    """The gate's seeds as OpenCV calls made them (session 6)."""
+    """The gate's seeds as OpenCV calls made them before the compiled pass."""
     h, w = image.shape[:2]
     sample = cv2.resize(image, (w // 4, h // 4), interpolation=cv2.INTER_LINEAR)
     if gains != (1.0, 1.0, 1.0):
@@ -433,7 +433,7 @@ def test_coarse_seeds_match_opencv_on_random_frames() -> None:
 def _opencv_box(image: np.ndarray, box: tuple[int, int, int, int],
                 gains: tuple[float, float, float], sat_min: int, v_floor: int,
                 gate: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A gated rectangle's search products as OpenCV calls made them (session 6)."""
+    """A gated rectangle's search products as OpenCV calls made them before the compiled pass."""
     x0, y0, x1, y1 = box
     small = cv2.resize(image[2 * y0:2 * y1, 2 * x0:2 * x1], (x1 - x0, y1 - y0),
                        interpolation=cv2.INTER_AREA)

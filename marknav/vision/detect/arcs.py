@@ -50,8 +50,8 @@ def _mean_abs(values: FloatArray) -> float:
 #: The flattest outline a partial mark is allowed before a straight stretch of it counts as an
 #: occluder's edge: that of an ellipse of this axis ratio about the larger of the blob's
 #: equivalent radius and half its extent (0.45-0.7 find the same 41 of 48 elongated partial
-#: marks in the session-5 sweep; 0.45 misses the bar across composite frame 21's mark, 0.5-0.8
-#: give the same corpus figures).
+#: marks of the composited frames; 0.45 misses a mark crossed by a bar, 0.5-0.8 give the same
+#: corpus figures).
 _STRAIGHT_AXIS_RATIO = 0.7
 
 #: A window's label for pixels of a palette colour's other hue cluster (:attr:`_Frame.hue_keep`):
