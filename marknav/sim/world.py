@@ -111,7 +111,7 @@ WHEEL_SLIP_MAX = 0.02
 LATENCY_FRAMES_RANGE = (0, 2)
 MARK_YAW_MAX_DEG = 45.0
 
-# --- randomised realism (docs/simulator-realism.md gives each range's source) -----------------
+# --- randomised realism (docs/explanation/simulator-realism.md gives each range's source) -----------------
 #: Camera frame rate, Hz: UVC webcams deliver 30 fps, and 15 fps when auto-exposure lengthens
 #: the exposure in dim indoor light.
 FRAME_RATE_RANGE_HZ = (15.0, 30.0)
@@ -673,7 +673,7 @@ def generate_world(
     realism conditions (:func:`random_realism`) and, with ``patches``, friction patches on the
     course (:func:`random_patches`: not drawn by default — a patch under one wheel during a
     bypass, with the mark out of view, turns the robot where odometry cannot see it; see
-    docs/simulator-realism.md). Same arguments and seed → same world.
+    docs/explanation/simulator-realism.md). Same arguments and seed → same world.
     """
     if clearance_mm <= 0 or radius_mm <= 0 or bypass_distance_mm <= 0:
         raise ValueError("clearance, radius and bypass distance must be positive")

@@ -41,7 +41,7 @@ def test_a_serial_robot_takes_the_tape_measurement(capsys: pytest.CaptureFixture
     out = json.loads(capsys.readouterr().out)
     assert code == 0
     assert out["odometry_mm"] >= 60.0
-    assert out["odometry_scale"] == pytest.approx(57.0 / out["odometry_mm"], abs=1e-4)
+    assert out["odometry_scale"] == pytest.approx(57.0 / out["odometry_mm"], abs=1e-3)
     assert "odometry_deg" not in out
 
 
