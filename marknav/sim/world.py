@@ -111,7 +111,7 @@ WHEEL_SLIP_MAX = 0.02
 LATENCY_FRAMES_RANGE = (0, 2)
 MARK_YAW_MAX_DEG = 45.0
 
-# --- randomised realism (docs/explanation/simulator-realism.md gives each range's source) -----------------
+# --- randomised realism (docs/explanation/simulator-realism.md: each range's source) ------
 #: Camera frame rate, Hz: UVC webcams deliver 30 fps, and 15 fps when auto-exposure lengthens
 #: the exposure in dim indoor light.
 FRAME_RATE_RANGE_HZ = (15.0, 30.0)
