@@ -23,6 +23,7 @@ from marknav.cli import (
     bench,
     calibrate,
     calibrate_camera,
+    calibrate_odometry,
     completion,
     detect,
     evaluate,
@@ -46,8 +47,8 @@ log = logging.getLogger(__name__)
 #: The modules that each register one sub-command, in the order ``--help`` shows them.
 COMMANDS: tuple[ModuleType, ...] = (
     run, validate, tree, evaluate, replay, examples, tune, random_mission, bench, detect,
-    palette, calibrate, calibrate_camera, sim_robot, schema, serve_camera, serve_robot,
-    completion,
+    palette, calibrate, calibrate_camera, calibrate_odometry, sim_robot, schema, serve_camera,
+    serve_robot, completion,
 )
 
 

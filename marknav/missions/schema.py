@@ -197,6 +197,12 @@ class Robot(BaseModel):
         "is 500).",
         json_schema_extra={"maximum": CREATE_MAX_SPEED_MM_S},
     )
+    odometry_scale: float = Field(
+        default=1.0, ge=0.8, le=1.25, allow_inf_nan=False,
+        description="Ground travel per millimetre the encoders report (worn tyres, a wheel off "
+        "the nominal 72 mm); `marknav calibrate-odometry` measures it. 1: the encoders as they "
+        "are.",
+    )
     calibrate_wheels: bool = Field(
         default=True,
         description="Calibrate the right/left wheel ratio of odometry from mark sightings while "

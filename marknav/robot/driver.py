@@ -22,7 +22,24 @@ in one ``write``, under a lock.
 Stream budget (OI spec "Stream": 15 ms ≈ 86 bytes at 57600 baud, 172 at 115200). Default
 packets: Create 2 — 7–12, 14, 19, 20, group 3 (battery 21–26), group 5 (35–42: OI mode,
 requested velocities), 43, 44, 45: 55 bytes a frame; Create 1 — the same without 43–45:
-47 bytes. Requests over 60 % of the budget are refused.
+47 bytes. A Create 2 on a slower line drops 19, 20 (its odometry reads the encoders) and 45:
+46 bytes. Requests over 60 % of the budget are refused.
+
+Create realities (OI spec "Serial Port Settings", "Passive Mode"):
+
+- **Baud rate**: ``baudrate="auto"`` tries 115200, then 57600 (:data:`AUTO_BAUDRATES`): at each,
+  Start and a query of the OI mode (packet 35); the first rate that answers is kept. A line
+  that answers at neither is an :class:`InputError`: "no answer at 115200 or 57600 baud: check
+  power, cable and baud".
+- **Sleep and wake**: in Passive mode the robot sleeps after 5 minutes unless its Baud Rate
+  Change pin is pulsed low. Where the cable wires BRC to a modem line of the serial adapter
+  (``brc_line``: ``"rts"`` by default, ``"dtr"``, or ``None``), asserting the line pulls BRC
+  low: ``connect`` pulses it once before Start (waking a sleeping robot), and while the robot
+  reports Passive the driver pulses it every :data:`KEEPALIVE_PERIOD_S` (the spec's example:
+  low for 1 s every minute). A port without modem lines (a pty, a socket) is noted once in the
+  log; the robot may then sleep in Passive, which the sensor watchdog reports as a lost stream.
+  Three pulses within 2 s of power-on would switch the robot to 19200 baud: the driver never
+  pulses that often.
 """
 
 from __future__ import annotations
@@ -33,6 +50,9 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from types import TracebackType
+from typing import Literal
+
+import serial
 
 from marknav.core.clock import Clock, MonotonicClock
 from marknav.core.errors import InputError
@@ -43,7 +63,8 @@ from marknav.robot.packets import Model, OIMode, SensorState
 from marknav.robot.safety import SafetyEvent, SafetyLayer, SafetyState
 from marknav.robot.transport import LINK_ERRORS, SerialPort, open_port
 
-__all__ = ["CreateDriver", "SensorReading", "default_stream_ids", "stream_budget_bytes"]
+__all__ = ["AUTO_BAUDRATES", "KEEPALIVE_PERIOD_S", "CreateDriver", "SensorReading",
+           "default_stream_ids", "stream_budget_bytes"]
 
 log = logging.getLogger(__name__)
 
@@ -52,12 +73,28 @@ _DEFAULT_STREAM: dict[Model, tuple[int, ...]] = {
     Model.CREATE1: _COMMON_STREAM,
     Model.CREATE2: (*_COMMON_STREAM, 43, 44, 45),
 }
+#: A Create 2 on a line slower than 115200: its odometry reads the encoders (43, 44), so
+#: distance and angle (19, 20) and the light bumper (45) stay out of the stream.
+_SLOW_LINE_CREATE2 = (7, 8, 9, 10, 11, 12, 14, 3, 5, 43, 44)
 #: Fraction of the per-period byte budget a stream may use.
 STREAM_BUDGET_FRACTION = 0.6
+#: The baud rates ``baudrate="auto"`` tries, in order (Create 2 default, Create 1 default).
+AUTO_BAUDRATES: tuple[int, ...] = (115200, 57600)
+#: How long a baud-rate probe waits for the robot's answer, wall seconds (one byte comes back
+#: within a few ms on a live line; a USB adapter may hold it 16 ms).
+PROBE_TIMEOUT_S = 0.25
+#: BRC keep-alive period in Passive mode, s (spec: a pulse before five minutes pass; its example
+#: pulses every minute), and the pulse length, s (its example: 1 s low).
+KEEPALIVE_PERIOD_S = 60.0
+KEEPALIVE_PULSE_S = 1.0
+#: Length of the wake pulse ``connect`` sends, s (a baud change needs three pulses of 50–500 ms).
+WAKE_PULSE_S = 0.1
 
 
-def default_stream_ids(model: Model) -> tuple[int, ...]:
-    """The packets the driver streams by default for ``model``."""
+def default_stream_ids(model: Model, baudrate: int | None = None) -> tuple[int, ...]:
+    """The packets the driver streams by default for ``model`` (on a line of ``baudrate``)."""
+    if model is Model.CREATE2 and baudrate is not None and baudrate < 115200:
+        return _SLOW_LINE_CREATE2
     return _DEFAULT_STREAM[model]
 
 
@@ -99,7 +136,13 @@ class CreateDriver:
         port: device path or pyserial URL (``/dev/ttyUSB0``, ``socket://h:p``,
             ``rfc2217://h:p``, ``createsim://…``).
         model: ``"create1"``/``"create2"`` (bad names raise :class:`InputError`).
-        baudrate: default 57600 (Create 1) or 115200 (Create 2).
+        baudrate: default 57600 (Create 1) or 115200 (Create 2); ``"auto"``: the first of
+            :data:`AUTO_BAUDRATES` at which the robot answers.
+        brc_line: the modem line (``"rts"``, ``"dtr"``) the cable wires to the robot's Baud
+            Rate Change pin, or ``None``: wake and keep-alive pulses go there.
+        wake_pulse_s: length of the BRC pulse ``connect`` sends (wall seconds).
+        odometry_scale: ground travel per mm the encoders report (the mission's
+            ``robot.odometry_scale``).
         clock: time for the safety watchdogs and sensor timestamps (default monotonic).
         mode: ``OIMode.SAFE`` (default) or ``OIMode.FULL``.
         command_timeout_s, sensor_timeout_s: the safety watchdogs.
@@ -119,7 +162,7 @@ class CreateDriver:
         port: str,
         *,
         model: Model | str = Model.CREATE2,
-        baudrate: int | None = None,
+        baudrate: int | Literal["auto"] | None = None,
         clock: Clock | None = None,
         mode: OIMode = OIMode.SAFE,
         command_timeout_s: float = 0.3,
@@ -131,6 +174,9 @@ class CreateDriver:
         settle_s: float = 0.05,
         open_port: Callable[..., SerialPort] = open_port,
         reader_thread: bool = True,
+        brc_line: str | None = "rts",
+        wake_pulse_s: float = WAKE_PULSE_S,
+        odometry_scale: float = 1.0,
     ) -> None:
         try:
             self.model = Model.parse(model)
@@ -138,30 +184,31 @@ class CreateDriver:
             raise InputError(str(exc), field="model") from None
         if mode not in (OIMode.SAFE, OIMode.FULL):
             raise ValueError(f"mode must be OIMode.SAFE or OIMode.FULL, got {mode!r}")
+        if brc_line not in (None, "rts", "dtr"):
+            raise ValueError(f"brc_line must be 'rts', 'dtr' or None, got {brc_line!r}")
         self.port_url = port
-        self.baudrate = baudrate or self.model.default_baudrate
+        self.auto_baud = baudrate == "auto"
+        self.baudrate = (self.model.default_baudrate if baudrate in (None, "auto")
+                         else int(baudrate))
         self.mode = mode
         self.clock: Clock = clock or MonotonicClock()
-        ids = tuple(stream_ids) if stream_ids is not None else default_stream_ids(self.model)
-        oi.stream(ids, model=self.model)  # validates the ids
-        frame_bytes = 3 + oi.stream_ids_size(self.model, ids)
-        budget = stream_budget_bytes(self.baudrate)
-        if frame_bytes > STREAM_BUDGET_FRACTION * budget:
-            raise ValueError(
-                f"a stream frame of {frame_bytes} bytes is over {STREAM_BUDGET_FRACTION:.0%} of "
-                f"the {budget:.0f} bytes per 15 ms at {self.baudrate} baud")
-        self.stream_ids = ids
-        self.stream_frame_bytes = frame_bytes
+        self._given_stream_ids = None if stream_ids is None else tuple(stream_ids)
+        self._configure_stream(self.baudrate)
+        self.brc_line = brc_line
+        self.wake_pulse_s = float(wake_pulse_s)
+        self._brc_usable = brc_line is not None
+        self._pulse_end: float | None = None  # clock time to release a keep-alive pulse
+        self._last_pulse_t: float | None = None
         self.first_frame_timeout_s = first_frame_timeout_s
         self.settle_s = settle_s
         self._open_port = open_port
         self.reader_thread = reader_thread
         self._start_pose = start_pose
-        self.odometry = Odometry(self.model, wheel_base_mm=wheel_base_mm, pose=start_pose)
+        self.odometry = Odometry(self.model, wheel_base_mm=wheel_base_mm, pose=start_pose,
+                                 scale=odometry_scale)
         self.safety = SafetyLayer(_WheelSink(self), clock=self.clock,
                                   command_timeout_s=command_timeout_s,
                                   sensor_timeout_s=sensor_timeout_s)
-        self.parser = oi.StreamParser(self.model, expected_ids=ids)
 
         self._port: SerialPort | None = None
         self._write_lock = threading.Lock()
@@ -174,6 +221,21 @@ class CreateDriver:
         self._link_error: str | None = None
         self._closed = False
         self._close_lock = threading.Lock()
+
+    def _configure_stream(self, baudrate: int) -> None:
+        """Choose and check the stream for a line of ``baudrate``; a new parser for it."""
+        ids = (self._given_stream_ids if self._given_stream_ids is not None
+               else default_stream_ids(self.model, baudrate))
+        oi.stream(ids, model=self.model)  # validates the ids
+        frame_bytes = 3 + oi.stream_ids_size(self.model, ids)
+        budget = stream_budget_bytes(baudrate)
+        if frame_bytes > STREAM_BUDGET_FRACTION * budget:
+            raise ValueError(
+                f"a stream frame of {frame_bytes} bytes is over {STREAM_BUDGET_FRACTION:.0%} of "
+                f"the {budget:.0f} bytes per 15 ms at {baudrate} baud")
+        self.stream_ids = ids
+        self.stream_frame_bytes = frame_bytes
+        self.parser = oi.StreamParser(self.model, expected_ids=ids)
 
     # --- lifecycle ----------------------------------------------------------------------------
 
@@ -194,8 +256,12 @@ class CreateDriver:
             raise
 
     def _connect(self) -> CreateDriver:
-        port = self._open_port(self.port_url, baudrate=self.baudrate)
-        self._port = port
+        if self.auto_baud:
+            port = self._detect_baudrate()
+        else:
+            port = self._open_port(self.port_url, baudrate=self.baudrate)
+            self._port = port
+            self._pulse_brc(port, self.wake_pulse_s)
         try:
             port.reset_input_buffer()
             self._write_raw(oi.start())
@@ -223,6 +289,89 @@ class CreateDriver:
         log.info("connected to %s on %s (%s mode)", self.model.value, self.port_url,
                  self.mode.name)
         return self
+
+    def _detect_baudrate(self) -> SerialPort:
+        """Open the port at each of :data:`AUTO_BAUDRATES` until the robot answers a query of
+        its OI mode; keep it open at that rate. :class:`InputError` if none answers."""
+        for i, baud in enumerate(AUTO_BAUDRATES):
+            port = self._open_port(self.port_url, baudrate=baud)
+            self._port = port
+            if i == 0:
+                self._pulse_brc(port, self.wake_pulse_s)  # once: three would change the baud
+            try:
+                answered = self._probe(port)
+            except LINK_ERRORS as exc:
+                self._abandon_port()
+                raise InputError(f"cannot talk to the robot: {exc}", file=self.port_url) from exc
+            if answered:
+                log.info("%s: the robot answers at %d baud", self.port_url, baud)
+                self.baudrate = baud
+                self._configure_stream(baud)
+                return port
+            log.info("%s: no answer at %d baud", self.port_url, baud)
+            self._abandon_port()
+        rates = " or ".join(str(b) for b in AUTO_BAUDRATES)
+        raise InputError(f"no answer at {rates} baud: check power, cable and baud",
+                         file=self.port_url)
+
+    def _probe(self, port: SerialPort) -> bool:
+        """Start, pause any stream, then ask for the OI mode (packet 35): True if a mode byte
+        (0..3) comes back within :data:`PROBE_TIMEOUT_S`."""
+        port.write(oi.start())
+        port.write(oi.pause_stream())
+        time.sleep(self.settle_s)
+        port.reset_input_buffer()
+        port.write(oi.sensors(35, model=self.model))
+        deadline = time.monotonic() + PROBE_TIMEOUT_S
+        while time.monotonic() < deadline:
+            data = port.read(1)
+            if data:
+                return data[0] <= 3
+        return False
+
+    def _pulse_brc(self, port: SerialPort, length_s: float) -> None:
+        """One Baud Rate Change pulse (the BRC line asserted: the pin low) of ``length_s``."""
+        if not self._set_brc(port, True):
+            return
+        if length_s > 0:
+            time.sleep(length_s)
+        self._set_brc(port, False)
+        self._last_pulse_t = self.clock.now()
+
+    def _set_brc(self, port: SerialPort, asserted: bool) -> bool:
+        """Set the BRC line; False (noted once in the log) where the port has no modem lines."""
+        if not self._brc_usable or self.brc_line is None:
+            return False
+        try:
+            setattr(port, self.brc_line, asserted)
+        except (serial.SerialException, OSError, AttributeError, ValueError,
+                NotImplementedError) as exc:
+            self._brc_usable = False
+            log.info("%s: no %s line to pulse the Baud Rate Change pin (%s): in Passive mode "
+                     "the robot sleeps after 5 minutes", self.port_url, self.brc_line.upper(),
+                     exc)
+            return False
+        return True
+
+    def _keep_awake(self, port: SerialPort) -> None:
+        """In Passive mode, a BRC pulse every :data:`KEEPALIVE_PERIOD_S` (never blocking: the
+        line is released on a later call once the pulse has lasted)."""
+        if not self._brc_usable:
+            return
+        now = self.clock.now()
+        if self._pulse_end is not None:
+            if now >= self._pulse_end:
+                self._set_brc(port, False)
+                self._pulse_end = None
+            return
+        passive = self._sensors.oi_mode == OIMode.PASSIVE
+        if not passive or self._reading is None:
+            return
+        due = self._last_pulse_t is None or now - self._last_pulse_t >= KEEPALIVE_PERIOD_S
+        if due and self._set_brc(port, True):
+            self._last_pulse_t = now
+            self._pulse_end = now + KEEPALIVE_PULSE_S
+            log.debug("%s: BRC keep-alive pulse (Passive mode)", self.port_url)
 
     def _wait_first_frame(self, timeout_s: float) -> None:
         if self.reader_thread:
@@ -498,6 +647,10 @@ class CreateDriver:
                 self._on_frame(frame)
                 handled += 1
         self._poll_safety()
+        try:
+            self._keep_awake(port)
+        except Exception:
+            log.exception("BRC keep-alive failed")
         return handled
 
     def _poll_safety(self) -> None:

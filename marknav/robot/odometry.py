@@ -58,8 +58,12 @@ class Odometry:
     """
 
     def __init__(self, model: Model, *, wheel_base_mm: float | None = None,
-                 pose: Pose | None = None) -> None:
+                 pose: Pose | None = None, scale: float = 1.0) -> None:
+        if not (math.isfinite(scale) and 0.5 < scale < 2.0):
+            raise ValueError(f"odometry scale must be in (0.5, 2), got {scale!r}")
         self.model = model
+        #: Ground travel per reported mm, both wheels (``marknav calibrate-odometry``).
+        self.scale = float(scale)
         self.wheel_base_mm = float(wheel_base_mm or model.wheel_base_mm)
         if self.wheel_base_mm <= 0:
             raise ValueError(f"wheel_base_mm must be positive, got {wheel_base_mm}")
@@ -119,7 +123,8 @@ class Odometry:
     def advance(self, *, left_mm: float, right_mm: float) -> Pose:
         """Integrate wheel travels (mm) as one constant-curvature arc."""
         # Distances over a unit time step are speeds over that step: the arc is the same.
-        right_mm *= self.right_scale
+        left_mm *= self.scale
+        right_mm *= self.right_scale * self.scale
         self._pose = integrate_pose(self._pose, left=left_mm, right=right_mm, dt=1.0,
                                     wheel_base_mm=self.wheel_base_mm)
         self._shadow = integrate_pose(self._shadow, left=left_mm,

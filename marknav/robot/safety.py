@@ -8,9 +8,10 @@ What it implements, from the Create Open Interface specifications (``shared/refe
   stops: bumps, a command watchdog and a sensor watchdog, and treats an unexpected drop to Passive
   as a fault.
 - Packet 7 (*Bumps and Wheel Drops*), packets 9-12 (*Cliff Left / Front Left / Front Right /
-  Right*), packet 14 (*Wheel Overcurrents*) and packet 35 (*OI Mode*: 0 off, 1 passive, 2 safe,
-  3 full) are the inputs, read through the small :class:`SafetyInputs` protocol so this module does
-  not depend on the wire decoder.
+  Right*), packet 14 (*Wheel Overcurrents*), packets 25/26 (*Battery Charge / Capacity*: a charge
+  under :data:`LOW_BATTERY_FRACTION` of capacity is a fault) and packet 35 (*OI Mode*: 0 off,
+  1 passive, 2 safe, 3 full) are the inputs, read through the small :class:`SafetyInputs`
+  protocol so this module does not depend on the wire decoder.
 - *Drive Direct* (opcode 145, ±500 mm/s per wheel) is the output, through :class:`WheelSink`.
   Speeds over the limit are scaled together (the curve is kept) and rounded to whole mm/s.
 
@@ -55,6 +56,7 @@ from marknav.core.clock import Clock
 
 __all__ = [
     "EVENTS",
+    "LOW_BATTERY_FRACTION",
     "OI_MODE_NAMES",
     "SafetyEvent",
     "SafetyFlags",
@@ -127,6 +129,14 @@ class SafetyInputs(Protocol):
     @property
     def overcurrent_right_wheel(self) -> bool: ...
     @property
+    def charge_mah(self) -> int:
+        """Battery charge, mAh (packet 25)."""
+        ...
+    @property
+    def capacity_mah(self) -> int:
+        """Battery capacity, mAh (packet 26; 0: unknown, no battery check)."""
+        ...
+    @property
     def oi_mode(self) -> int:
         """0 off, 1 passive, 2 safe, 3 full (packet 35)."""
         ...
@@ -156,6 +166,8 @@ class SafetyFlags:
     cliff_right: bool = False
     overcurrent_left_wheel: bool = False
     overcurrent_right_wheel: bool = False
+    charge_mah: int = 0
+    capacity_mah: int = 0
     oi_mode: int = 2
 
 
@@ -186,12 +198,23 @@ _FAULT_FIELDS: tuple[tuple[str, str], ...] = (
 )
 
 
+#: A battery charge under this fraction of its capacity is a fault: the pack's voltage collapses
+#: near empty (a NiMH cell falls from 1.2 V towards 1.0 V), the motors lose speed and the robot
+#: may brown out mid-motion; the Roomba itself goes home to its dock long before.
+LOW_BATTERY_FRACTION = 0.05
+
+
 def fault_conditions(inputs: SafetyInputs) -> list[str]:
-    """Names of the latched-fault conditions present in a frame (wheel drops, cliffs, overcurrents).
+    """Names of the latched-fault conditions present in a frame (wheel drops, cliffs,
+    overcurrents, a battery under :data:`LOW_BATTERY_FRACTION` of its capacity).
 
     The OI mode is judged separately (a drop to Passive is a fault only once Safe/Full was seen).
     """
-    return [name for attr, name in _FAULT_FIELDS if getattr(inputs, attr)]
+    out = [name for attr, name in _FAULT_FIELDS if getattr(inputs, attr)]
+    capacity = inputs.capacity_mah
+    if capacity > 0 and inputs.charge_mah < LOW_BATTERY_FRACTION * capacity:
+        out.append(f"low battery ({inputs.charge_mah} of {capacity} mAh)")
+    return out
 
 
 def scale_wheels(left: float, right: float, max_wheel_mm_s: int) -> tuple[int, int]:

@@ -55,7 +55,8 @@ RANDOM = "random"
 #: :data:`marknav.sim.scenery.FLOOR_SATURATION_RANGE`'s 160, +8 % grain) and what the marks
 #: read (≥ 230 at the 5th percentile in the dimmest, noisiest light): with a floor of 100, a
 #: near mark standing on a wood floor or carpet of its hue merged with it and was not found.
-#: ``tests/runs/test_random_mission.py`` measures both.
+#: ``tests/runs/test_random_mission.py`` measures both. The floors are for marks of full paint:
+#: a world's printed marks (``mark_saturation`` < 1) get floors scaled by the palest one's.
 PALETTE: dict[str, tuple[tuple[int, int], int]] = {
     "red": ((166, 2), 180),
     "orange": ((3, 25), 180),
@@ -194,6 +195,17 @@ def random_mission(seed: int) -> RandomMission:
         route, seed=seed, clearance_mm=clearance, radius_mm=radius, conditions="randomised",
         bypass_distance_mm=bypass, sides=[sides[c] for c in route],
         half_fov_deg=mission.camera.hfov_deg / 2.0)
+    # The saturation floors a user would calibrate with these printed marks: the marks read
+    # their paint's saturation (conditions.mark_saturation, ± its spread mark to mark) times
+    # what full paint reads, so the floor scales with the palest mark (PALETTE's floors are
+    # for full paint).
+    cond = base.conditions
+    palest = max(0.05, cond.mark_saturation - cond.mark_saturation_spread)
+    if palest < 1.0:
+        for c in colours:
+            colours[c]["sat_min"] = int(round(PALETTE[c][1] * palest))
+        text = yaml.safe_dump(mission_doc, sort_keys=False)
+        mission = parse_mission(load_yaml_text(text, f"<random mission {seed}>"))
     extra = _off_course(rng, base, route, clearance, radius)
     world = worldmod.World.model_validate(
         {**{k: getattr(base, k) for k in worldmod.World.model_fields},

@@ -149,6 +149,7 @@ def make_environment(mission: Mission, req: RunRequest, seed: int) -> Environmen
             wheel_base_mm=mission.robot.wheel_base_mm,
             engine=engine_of(mission, req),
             shadows=mission.sim.shadows if mission.sim is not None else True,
+            odometry_scale=mission.robot.odometry_scale,
         )
     if req.engine is not None and req.engine != "builtin":
         raise InputError("--engine chooses the simulator; it needs --robot sim",
@@ -164,7 +165,8 @@ def make_environment(mission: Mission, req: RunRequest, seed: int) -> Environmen
     camera = open_source(req.camera, timeout_s=0.0, latency_s=mission.camera.latency_s)
     try:
         driver = CreateDriver(
-            req.robot, model=mission.robot.model,
+            req.robot, model=mission.robot.model, baudrate="auto",
+            odometry_scale=mission.robot.odometry_scale,
             command_timeout_s=mission.safety.command_timeout_s,
             sensor_timeout_s=mission.safety.sensor_timeout_s,
             wheel_base_mm=mission.robot.wheel_base_mm,

@@ -9,6 +9,13 @@ stops the wheels within one stream period, as on the real robot. The camera rend
 from the robot's true pose. Nothing here reads the wall clock: a run is deterministic for a seed
 and runs as fast as the machine allows.
 
+The world's conditions reach the robot (acceleration, top speed, encoder scale and noise, command
+delay, friction patches under each wheel) and the camera (frame rate, drops, exposure, printed
+marks; frames placed at their capture time with the true pose then, :meth:`GroundTruth.pose_at`).
+The world's timed fault events (:class:`~marknav.sim.world.FaultEvent`) are set on the simulated
+Create's sensors when their time comes, so the driver reads them from the stream bytes as it
+would read a real cliff or wheel drop.
+
 Ground truth (robot pose at every sub-step, contacts) is recorded for the run report's
 per-waypoint truth (:mod:`marknav.sim.truth`), ``truth_path``, ``collisions`` and the top-down
 plot.
@@ -18,6 +25,7 @@ from __future__ import annotations
 
 import bisect
 import logging
+import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -112,12 +120,15 @@ class SimEnvironment:
         wheel_base_mm: float | None = None,
         engine: str = "builtin",
         shadows: bool = True,
+        odometry_scale: float = 1.0,
     ) -> None:
         self.world = world
         self.palette = palette
         self.robot_radius_mm = robot_radius_mm
         self.engine = engine
         self.clock = ManualClock()
+        self._held_bump: tuple[bool, bool] = (False, False)
+        self._bumper: tuple[bool, bool] = (False, False)  # bits last set on the simulated Create
         c = world.conditions
         start = world.robot.pose()
         cam_config = camera or CameraConfig()
@@ -138,12 +149,21 @@ class SimEnvironment:
             left_scale=1.0 - c.wheel_slip,
             right_scale=(1.0 + c.wheel_mismatch) * (1.0 - c.wheel_slip),
             seed=seed, body=body,
+            accel_mm_s2=c.accel_mm_s2 or None,
+            top_speed_mm_s=c.top_speed_mm_s,
+            encoder_scale=c.encoder_scale,
+            encoder_noise_counts=c.encoder_noise_counts,
+            command_delay_s=c.command_delay_ms / 1000.0,
+            ground_fn=self._ground if world.patches else None,
         )
+        self._events = sorted(world.events, key=lambda e: e.t_s)
+        self._active: list[tuple[float, worldmod.FaultEvent]] = []  # (end time, event)
         self._url = register(self.create)
         self.driver = CreateDriver(
             self._url, model=model, clock=self.clock, command_timeout_s=command_timeout_s,
             sensor_timeout_s=sensor_timeout_s, wheel_base_mm=wheel_base_mm, start_pose=start,
-            first_frame_timeout_s=None, settle_s=0.0, reader_thread=False,
+            first_frame_timeout_s=None, settle_s=0.0, reader_thread=False, wake_pulse_s=0.0,
+            odometry_scale=odometry_scale,
         )
         self.truth = GroundTruth()
         self.camera: Any
@@ -202,7 +222,56 @@ class SimEnvironment:
             unregister(self._url.split("://", 1)[1])
 
     # -- internals ------------------------------------------------------------------------
+    def _ground(self, pose: Pose) -> tuple[float, float]:
+        """Each wheel's share of its travel that reaches the ground where it stands (1 off every
+        friction patch): the wheels sit half the wheel base to each side of the centre."""
+        half = 0.5 * self.create.wheel_base_mm
+        lx, ly = -math.sin(pose.theta) * half, math.cos(pose.theta) * half
+        out = []
+        for sx, sy in ((pose.x + lx, pose.y + ly), (pose.x - lx, pose.y - ly)):
+            f = 1.0
+            for patch in self.world.patches:
+                if patch.contains(sx, sy):
+                    f = min(f, 1.0 - patch.slip)
+            out.append(f)
+        return (out[0], out[1])
+
+    def _apply_events(self, now: float) -> None:
+        """Start the fault events whose time has come, end those that lasted their duration."""
+        changed = False
+        while self._events and self._events[0].t_s <= now + 1e-9:
+            ev = self._events.pop(0)
+            end = math.inf if ev.duration_s is None else ev.t_s + ev.duration_s
+            self._active.append((end, ev))
+            log.warning("fault event at %.3f s: %s (%s)", now, ev.fault, ev.side)
+            changed = True
+        ended = [a for a in self._active if a[0] <= now + 1e-9]
+        if ended:
+            self._active = [a for a in self._active if a[0] > now + 1e-9]
+            changed = True
+        if changed:
+            self._set_faults([ev for _, ev in self._active])
+
+    def _set_faults(self, active: list[worldmod.FaultEvent]) -> None:
+        def on(fault: str, side: str) -> bool:
+            return any(e.fault == fault and e.side in (side, "both") for e in active)
+
+        sim = self.create
+        sim.set_cliff(left=on("cliff", "left"), front_left=on("cliff", "front_left"),
+                      front_right=on("cliff", "front_right"), right=on("cliff", "right"))
+        sim.set_wheel_drop(left=on("wheel_drop", "left"), right=on("wheel_drop", "right"))
+        sim.set_overcurrent(left_wheel=on("overcurrent", "left"),
+                            right_wheel=on("overcurrent", "right"))
+        sim.set_low_battery(any(e.fault == "low_battery" for e in active))
+        self._held_bump = (on("bump", "left"), on("bump", "right"))
+        # the bumper bits at once (contacts are added after the step's motion)
+        left, right = self._held_bump
+        if left or right or self._bumper != (False, False):
+            sim.set_bump(left, right)
+            self._bumper = (left, right)
+
     def _step(self, dt: float) -> None:
+        self._apply_events(self.clock.now() + dt)
         if self._mujoco is not None:
             self._step_mujoco(dt)
             return
@@ -222,9 +291,11 @@ class SimEnvironment:
                 self.create.set_pose(pose)
                 pressed = worldmod.contacts(self.world, pose,
                                             robot_radius_mm=r + BUMPER_TRAVEL_MM)
+        held_left, held_right = self._held_bump  # a bump event: pinned, not a collision
+        left, right = held_left, held_right
         if pressed:
             b = worldmod.bumps(pressed)
-            self.create.set_bump(b.left, b.right)
+            left, right = left or b.left, right or b.right
             if not self._in_contact:
                 c = pressed[0]
                 self.truth.collisions.append({
@@ -234,10 +305,10 @@ class SimEnvironment:
                 })
                 log.warning("collision with %s %d at (%.0f, %.0f)", c.kind, c.index,
                             pose.x, pose.y)
-            self._in_contact = True
-        elif self._in_contact:
-            self.create.set_bump(False, False)
-            self._in_contact = False
+        self._in_contact = bool(pressed)
+        if left or right or self._bumper != (left, right):
+            self.create.set_bump(left, right)
+            self._bumper = (left, right)
         self.driver.process_input()
 
     def _step_mujoco(self, dt: float) -> None:
@@ -246,12 +317,12 @@ class SimEnvironment:
         self.create.step(dt)
         pressed = self._mujoco.bumper()
         front = [c for c in pressed if c.bump_left or c.bump_right]
-        if front:
-            left = any(c.bump_left for c in front)
-            right = any(c.bump_right for c in front)
+        # the bumper: the body's contacts, or a bump event held (the world's fault events)
+        left = any(c.bump_left for c in front) or self._held_bump[0]
+        right = any(c.bump_right for c in front) or self._held_bump[1]
+        if left or right or self._bumper != (left, right):
             self.create.set_bump(left, right)
-        elif self._in_contact:
-            self.create.set_bump(False, False)
+            self._bumper = (left, right)
         if pressed and not self._in_contact:
             c = pressed[0]
             pose = self.create.pose

@@ -68,6 +68,7 @@ __all__ = [
     "Renderer",
     "SimCamera",
     "mark_bgr",
+    "mark_inks",
     "project_marks",
     "render",
 ]
@@ -79,6 +80,8 @@ AA_EDGE_BIAS_PX = 0.6
 _SHIFT = 8  # fixed-point bits for cv2.fillPoly
 #: Elevation of the far wall's base below the horizon (camera above the floor), degrees.
 _WALL_BASE_DEG = 1.5
+#: Capture times a read looks back over (a camera far faster than the control loop).
+_MAX_CAPTURES_PER_READ = 64
 
 
 @dataclass(frozen=True)
@@ -123,10 +126,13 @@ class CameraConfig:
         return 2.0 * math.atan((self.width / 2.0) / self.focal_px)
 
 
-def mark_bgr(colour: ColourRange) -> tuple[float, float, float]:
-    """The BGR colour (0..255) a mark of ``colour`` is painted: hue at the middle of the range,
-    full saturation and value."""
-    hsv = np.array([[[colour.centre_hue * 2.0, 1.0, 1.0]]], dtype=np.float32)
+def mark_bgr(colour: ColourRange, *, saturation: float = 1.0,
+             hue_offset: float = 0.0) -> tuple[float, float, float]:
+    """The BGR colour (0..255) a mark of ``colour`` is painted: hue at the middle of the range
+    (plus ``hue_offset``, OpenCV units), full value, ``saturation`` (1: full) — printed marks
+    are less than fully saturated (world conditions ``mark_saturation``, ``..._spread``)."""
+    hue = (colour.centre_hue + hue_offset) % 180.0
+    hsv = np.array([[[hue * 2.0, min(1.0, max(0.0, saturation)), 1.0]]], dtype=np.float32)
     bgr = cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR)[0, 0] * 255.0
     return (float(bgr[0]), float(bgr[1]), float(bgr[2]))
 
@@ -308,13 +314,16 @@ class Renderer:
         by_name = {c.name: c for c in palette}
         gains = np.array(world.conditions.channel_gains_bgr())
         self._colours: list[tuple[float, float, float]] = []
+        inks = mark_inks(world)
         for i, m in enumerate(world.marks):
             if m.colour not in by_name:
                 raise ValueError(
                     f"marks[{i}]: colour {m.colour!r} is not in the palette "
                     f"({', '.join(sorted(by_name))}); check the world with check_against_palette"
                 )
-            bgr = np.minimum(np.array(mark_bgr(by_name[m.colour])) * gains, 255.0)
+            sat, dh = inks[i]
+            bgr = np.minimum(np.array(mark_bgr(by_name[m.colour], saturation=sat,
+                                               hue_offset=dh)) * gains, 255.0)
             self._colours.append((float(bgr[0]), float(bgr[1]), float(bgr[2])))
         self._geometry = MarkGeometry(world)
         _warm_projection()  # its compiled loops, loaded now rather than in the first frame
@@ -401,8 +410,21 @@ class Renderer:
         cv2.GaussianBlur(roi, self._ksize, self._blur, dst=roi)
         return u0, v0, u1, v1, roi[v0 - sv0:v1 - sv0 + 1, k:k + u1 - u0 + 1]
 
-    def render(self, pose: Pose, rng: np.random.Generator | None = None) -> Image:
-        """One BGR frame from ``pose``. ``rng`` picks the noise; ``None`` renders noise-free."""
+    def render(self, pose: Pose, rng: np.random.Generator | None = None, *,
+               motion_px: float = 0.0, gain: float = 1.0) -> Image:
+        """One BGR frame from ``pose``. ``rng`` picks the noise; ``None`` renders noise-free.
+
+        ``motion_px``: the image moved this many pixels sideways during the exposure (the robot
+        turning), smeared by a box filter of that length; ``gain``: the exposure's brightness
+        factor. Both apply to the scene, before the sensor's noise."""
+        if abs(motion_px) >= 1.0 or gain != 1.0:
+            img = self.render(pose, None)
+            if abs(motion_px) >= 1.0:
+                length = max(2, round(abs(motion_px)))
+                img = np.asarray(cv2.blur(img, (length, 1)), dtype=np.uint8)
+            if gain != 1.0:
+                img = np.asarray(cv2.convertScaleAbs(img, alpha=gain), dtype=np.uint8)
+            return self._add_noise(img, rng)
         if (self._noise is not None and rng is not None and self._warp is None
                 and not self._poles and self._tilt is None):
             return self._render_noisy(pose, rng, self._noise)
@@ -426,7 +448,11 @@ class Renderer:
             img = np.asarray(cv2.warpPerspective(img, self._tilt, (w, h), flags=cv2.INTER_LINEAR,
                                                  borderMode=cv2.BORDER_REPLICATE),
                              dtype=np.uint8)
+        return self._add_noise(img, rng)
+
+    def _add_noise(self, img: Image, rng: np.random.Generator | None) -> Image:
         if self._noise is not None and rng is not None:
+            h, w = img.shape[:2]
             pos, neg = self._noise
             oy = int(rng.integers(0, h + 1))
             ox = int(rng.integers(0, w + 1))
@@ -461,6 +487,20 @@ class Renderer:
         return img
 
 
+def mark_inks(world: World) -> list[tuple[float, float]]:
+    """Each mark's (saturation, hue offset) as printed: ``mark_saturation`` ± up to
+    ``mark_saturation_spread`` and a hue ± up to ``mark_hue_spread`` OpenCV units, drawn per mark
+    from the world's background seed (the same marks look the same in every run)."""
+    c = world.conditions
+    rng = np.random.default_rng([world.background.seed, 0x1C0])
+    out = []
+    for _ in world.marks:
+        ds = float(rng.uniform(-1.0, 1.0)) * c.mark_saturation_spread
+        dh = float(rng.uniform(-1.0, 1.0)) * c.mark_hue_spread
+        out.append((min(1.0, max(0.05, c.mark_saturation + ds)), dh))
+    return out
+
+
 @functools.lru_cache(maxsize=8)
 def _cached_renderer(
     world: World, palette: tuple[ColourRange, ...], config: CameraConfig
@@ -483,13 +523,22 @@ def render(
 class SimCamera:
     """The simulator's camera as a :class:`~marknav.vision.sources.FrameSource`.
 
-    Each :meth:`read` renders the world at the capture time ``clock.now() − delay_s`` (``delay_s``
-    defaults to the world's ``camera_latency_s + processing_s``) from ``pose_at(capture time)``
-    (without ``pose_at``, or with no delay: ``pose_fn()``, the pose now) and stamps the frame
-    with the capture time, as a camera whose driver reports it would. With ``latency_frames``
-    = L it delivers the frame rendered L reads earlier (the first frame until L frames have
-    been taken). ``seed`` fixes the noise. ``close`` is idempotent; a closed camera reads
-    ``None``.
+    Without a frame rate (``conditions.frame_rate_hz`` 0) each :meth:`read` takes a frame of the
+    world at each read. With one, the camera takes frames at its own
+    times ``t0 + k / frame_rate_hz`` (t0: when it was made), whatever the control rate: a read
+    delivers the newest frame taken since the previous read, or the previous frame again (same
+    index: nothing new) when none was. ``pose_at(t)`` (the true pose at a past time, from the
+    simulator) places each frame at its capture time; without it the current pose is used.
+    A frame taken is lost with probability ``dropped_frames``. During ``exposure_ms`` the robot's
+    turn smears the image (``pose_at`` needed); the brightness swings by ``exposure_drift``.
+    With ``latency_frames`` = L it delivers the frame taken L frames earlier (the first frame
+    until L frames have been taken). ``seed`` fixes the noise and the drops. ``close`` is
+    idempotent; a closed camera reads ``None``.
+
+    Frames reach the reader ``delay_s`` after their capture (default: the world's
+    ``camera_latency_s + processing_s``, continuous time): a read at ``now`` sees only the frames
+    taken by ``now − delay_s``, each stamped with its capture time and rendered from
+    ``pose_at(capture time)``, as a camera whose driver reports it would.
     """
 
     def __init__(
@@ -522,9 +571,17 @@ class SimCamera:
         self._pose_at = pose_at
         self._clock = clock
         self._rng = np.random.default_rng([int(seed), 0xCA3E7A])
+        self._drops = np.random.default_rng([int(seed), 0xD809])
         self._buffer: deque[Frame] = deque(maxlen=latency + 1)
         self._index = 0
         self._closed = False
+        self._pose_at = pose_at
+        c = world.conditions
+        self.conditions = c
+        self._t0 = clock.now()
+        self._last_capture = -1  # index of the last capture time looked at
+        self._phase = float(np.random.default_rng([int(seed), 0xE7]).uniform(0.0, 2 * math.pi))
+        self.frames_dropped = 0
 
     @property
     def config(self) -> CameraConfig:
@@ -543,13 +600,50 @@ class SimCamera:
     def read(self) -> Frame | None:
         if self._closed:
             return None
-        t = self._clock.now() - self.delay_s
-        pose = (self._pose_at(t) if self._pose_at is not None and self.delay_s > 0.0
-                else self._pose_fn())
-        image = self.renderer.render(pose, self._rng)
+        now = self._clock.now() - self.delay_s  # the newest capture time delivered now
+        c = self.conditions
+        if c.frame_rate_hz > 0:
+            period = 1.0 / c.frame_rate_hz
+            k = math.floor((now - self._t0) / period + 1e-9)
+            first = max(self._last_capture + 1, k - _MAX_CAPTURES_PER_READ + 1)
+            self._last_capture = k
+            # every frame taken since the last read may be lost; the newest one that was not
+            # is delivered
+            kept = [j for j in range(first, k + 1) if not self._dropped()]
+            if not kept and self._buffer:
+                return self._buffer[0]
+            t = self._t0 + (kept[-1] if kept else k) * period
+        else:
+            if self._dropped() and self._buffer:
+                return self._buffer[0]
+            t = now
+        self._take(t, self._clock.now())
+        return self._buffer[0]
+
+    def _dropped(self) -> bool:
+        p = self.conditions.dropped_frames
+        if p > 0 and self._drops.random() < p:
+            self.frames_dropped += 1
+            return True
+        return False
+
+    def _take(self, t: float, now: float) -> None:
+        """Render the frame captured at ``t`` and put it in the delivery buffer."""
+        c = self.conditions
+        pose_at = self._pose_at
+        pose = pose_at(t) if pose_at is not None and t < now else self._pose_fn()
+        motion = 0.0
+        if c.exposure_ms > 0 and pose_at is not None:
+            before = pose_at(t - c.exposure_ms / 1000.0)
+            turned = math.remainder(pose.theta - before.theta, 2 * math.pi)
+            motion = turned * self.config.focal_px
+        gain = 1.0
+        if c.exposure_drift > 0:
+            gain = 1.0 + c.exposure_drift * math.sin(
+                2 * math.pi * t / c.exposure_period_s + self._phase)
+        image = self.renderer.render(pose, self._rng, motion_px=motion, gain=gain)
         self._buffer.append(Frame(image=image, t=t, index=self._index))
         self._index += 1
-        return self._buffer[0]
 
     def close(self) -> None:
         self._closed = True

@@ -22,6 +22,26 @@ Bytes from the host go in with :meth:`SimulatedCreate.write`; bytes the robot se
   :func:`marknav.planning.kinematics.integrate_pose`. Odometry therefore cannot see slip, as on
   the real robot. Another engine (:mod:`marknav.sim.mujoco`) supplies a body stepped by its own
   physics; the byte handling here stays the same.
+- Realities of a real Create (all off by default; :class:`marknav.sim.world.Conditions` sets
+  them in simulated runs): the wheels reach a new speed at most at ``accel_mm_s2``; no wheel
+  turns faster than ``top_speed_mm_s`` (a sagging battery: Create 2 users report 330 mm/s for
+  500 commanded), clipped per wheel as a motor at full duty is; the encoders count
+  ``encoder_scale`` times the nominal wheel's counts for the ground travelled (tyre wear, a
+  wheel diameter off the spec's 72 mm) plus Gaussian noise of ``encoder_noise_counts`` per
+  15 ms tick; bytes from the host take effect ``command_delay_s`` after they were written
+  (USB adapter or Bluetooth link); ``ground_fn(pose)`` scales each wheel's ground travel by
+  where it stands (friction patches; the built-in body only: another engine's floor has its
+  own friction). The wheel speeds (ramps, top speed) go to the body, and the encoder scale
+  and noise apply to what it reports: the motors and the encoders are the robot's, not the
+  engine's.
+- Power saving (spec "Passive Mode"): in Passive mode the robot sleeps after ``sleep_after_s``
+  (300 s) without a Baud Rate Change pulse; asleep it ignores every byte and sends nothing. A BRC
+  pulse (the pin pulled low: :meth:`set_modem_line` on the line the cable wires to BRC,
+  ``brc_line``) resets the counter and wakes a sleeping robot with its OI off (Start needed).
+- Line speed: a serial port that tells the robot its baud rate (:meth:`set_line_baudrate`; the
+  ``createsim://`` port does) gets nothing through unless it matches the robot's
+  :attr:`baudrate` (Create 2: 115200, Create 1: 57600, or what Baud (129) set): a wrong baud
+  rate looks like a dead robot, as on the wire.
 
 Time is the simulator's own: :meth:`advance_to`, :meth:`step` (an injected
 :class:`~marknav.core.clock.ManualClock`) or :meth:`sync` (catch up to the injected clock, e.g. a
@@ -58,11 +78,16 @@ from marknav.robot.packets import (
     packet_layout,
 )
 
-__all__ = ["Body", "CommandRecord", "KinematicBody", "LedState", "SimulatedCreate"]
+__all__ = ["PASSIVE_SLEEP_S", "Body", "CommandRecord", "KinematicBody", "LedState",
+           "SimulatedCreate"]
 
 log = logging.getLogger(__name__)
 
 _ROBOT_RADIUS_MM = 170.0
+#: Passive mode sleeps after this long without a BRC pulse (spec "Passive Mode": five minutes).
+PASSIVE_SLEEP_S = 300.0
+#: Longest piece of time over which an accelerating wheel's speed is taken as constant, s.
+_RAMP_STEP_S = 0.005
 _BANNER = (b"\r\nmarknav simulated Roomba 600 (Create 2)\r\n"
            b"r3_robot/tags/release-3.4.1 (simulated)\r\nbattery-current-zero 0\r\n")
 
@@ -114,11 +139,13 @@ class KinematicBody:
     """The built-in body: wheels turn at exactly the commanded speed; the ground moves by it
     times ``left_scale``/``right_scale`` and a random relative slip per wheel (σ ``slip_std``
     per call, from ``seed``), integrated with :func:`marknav.planning.kinematics.integrate_pose`
-    over ``wheel_base_mm``. No inertia: speed changes are instantaneous."""
+    over ``wheel_base_mm``, each wheel's ground travel scaled by ``ground_fn(pose)`` where it
+    stands (friction patches). No inertia of its own: the simulated Create ramps the speeds."""
 
     def __init__(self, pose: Pose, *, wheel_base_mm: float, left_scale: float = 1.0,
                  right_scale: float = 1.0, slip_std: float = 0.0,
-                 seed: int | None = None) -> None:
+                 seed: int | None = None,
+                 ground_fn: Callable[[Pose], tuple[float, float]] | None = None) -> None:
         if not wheel_base_mm > 0:
             raise ValueError(f"wheel_base_mm must be positive, got {wheel_base_mm}")
         if slip_std < 0:
@@ -128,6 +155,7 @@ class KinematicBody:
         self.right_scale = float(right_scale)
         self.slip_std = float(slip_std)
         self._rng = random.Random(seed)
+        self.ground_fn = ground_fn
         self._pose = pose
         self._odometer_mm = 0.0
 
@@ -149,6 +177,9 @@ class KinematicBody:
         if self.slip_std > 0.0:
             gl *= 1.0 + self._rng.gauss(0.0, self.slip_std)
             gr *= 1.0 + self._rng.gauss(0.0, self.slip_std)
+        if self.ground_fn is not None:  # friction patches: each wheel slips where it stands
+            fl, fr = self.ground_fn(self._pose)
+            gl, gr = gl * fl, gr * fr
         self._pose = integrate_pose(self._pose, left=gl, right=gr, dt=dt,
                                     wheel_base_mm=self.wheel_base_mm)
         self._odometer_mm += abs(0.5 * (gl + gr)) * dt
@@ -166,10 +197,20 @@ class SimulatedCreate:
         wheel_base_mm: default: the model's (258 Create 1, 235 Create 2).
         left_scale, right_scale: ground speed / commanded speed per wheel (wheel mismatch).
         slip_std: standard deviation of an extra random relative slip per wheel and 15 ms tick.
-        seed: seed of the slip noise.
+        seed: seed of the slip and encoder noise.
         body: what moves (default a :class:`KinematicBody` from ``pose``, ``wheel_base_mm``,
-            the scales, ``slip_std`` and ``seed``, which are then ignored).
+            the scales, ``slip_std``, ``ground_fn`` and ``seed``, which are then ignored).
         max_output_bytes: bytes kept for the host before the oldest are dropped (a UART overrun).
+        accel_mm_s2: largest wheel acceleration, mm/s² (``None``: speeds change at once).
+        top_speed_mm_s: fastest a wheel turns, mm/s (battery sag; 500 is the OI's limit).
+        encoder_scale: encoder counts per nominal count of ground travel (odometry scale error).
+        encoder_noise_counts: σ of Gaussian noise added to each encoder per 15 ms tick, counts.
+        command_delay_s: time from a host write to the robot acting on it, s.
+        ground_fn: ``ground_fn(pose) -> (left, right)`` factors of each wheel's ground travel
+            where the robot stands (friction patches); ``None``: 1 everywhere.
+        sleep_after_s: Passive mode sleeps after this long without a BRC pulse (spec: 300 s).
+        brc_line: the serial modem line (``"rts"``, ``"dtr"``) the cable wires to the Baud Rate
+            Change pin, or ``None``: no cable line reaches it.
     """
 
     def __init__(
@@ -184,16 +225,44 @@ class SimulatedCreate:
         slip_std: float = 0.0,
         seed: int | None = None,
         max_output_bytes: int = 1 << 16,
+        accel_mm_s2: float | None = None,
+        top_speed_mm_s: float = 500.0,
+        encoder_scale: float = 1.0,
+        encoder_noise_counts: float = 0.0,
+        command_delay_s: float = 0.0,
+        ground_fn: Callable[[Pose], tuple[float, float]] | None = None,
+        sleep_after_s: float = PASSIVE_SLEEP_S,
+        brc_line: str | None = "rts",
         body: Body | None = None,
     ) -> None:
         self.model = Model.parse(model)
+        if accel_mm_s2 is not None and not accel_mm_s2 > 0:
+            raise ValueError(f"accel_mm_s2 must be positive or None, got {accel_mm_s2}")
+        if not 0 < top_speed_mm_s <= 500:
+            raise ValueError(f"top_speed_mm_s must be in (0, 500], got {top_speed_mm_s}")
+        if not encoder_scale > 0 or encoder_noise_counts < 0 or command_delay_s < 0:
+            raise ValueError("encoder_scale must be positive, encoder_noise_counts and "
+                             "command_delay_s not negative")
+        if brc_line not in (None, "rts", "dtr"):
+            raise ValueError(f"brc_line must be 'rts', 'dtr' or None, got {brc_line!r}")
+        self.accel_mm_s2 = accel_mm_s2
+        self.top_speed_mm_s = float(top_speed_mm_s)
+        self.encoder_scale = float(encoder_scale)
+        self.encoder_noise_counts = float(encoder_noise_counts)
+        self.command_delay_s = float(command_delay_s)
+        self.ground_fn = ground_fn
+        self.sleep_after_s = float(sleep_after_s)
+        self.brc_line = brc_line
         self.clock: Clock = clock if clock is not None else ManualClock()
         self.wheel_base_mm = float(wheel_base_mm or self.model.wheel_base_mm)
         if not self.wheel_base_mm > 0:
             raise ValueError(f"wheel_base_mm must be positive, got {wheel_base_mm}")
         self.body: Body = body if body is not None else KinematicBody(
             pose or Pose(0.0, 0.0, math.pi / 2), wheel_base_mm=self.wheel_base_mm,
-            left_scale=left_scale, right_scale=right_scale, slip_std=slip_std, seed=seed)
+            left_scale=left_scale, right_scale=right_scale, slip_std=slip_std, seed=seed,
+            ground_fn=ground_fn)
+        # encoder noise: its own stream (the body's slip has the seed's)
+        self._rng = random.Random(None if seed is None else f"encoders-{seed}")
         self._lock = RLock()
         self._output_ready = Condition(self._lock)
         self._max_output = int(max_output_bytes)
@@ -206,10 +275,19 @@ class SimulatedCreate:
         self._out = bytearray()
         self.dropped_output_bytes = 0
         self._unplugged = False
+        self._delayed: deque[tuple[float, bytes]] = deque()  # (due time, bytes) in flight
+        self._line_baudrate: int | None = None  # what the host's port is set to, if it says
+        self._asleep = False
+        self._passive_since = self._time  # last entry into Passive or BRC pulse
+        self._brc_low = False
+        self.brc_pulses = 0
+        self.ignored_bytes = 0  # bytes lost to sleep or a wrong baud rate
 
         # actuators
         self._cmd_left = 0.0  # commanded wheel speeds, mm/s
         self._cmd_right = 0.0
+        self._wheel_left = 0.0  # speeds the wheels turn at (acceleration, top speed), mm/s
+        self._wheel_right = 0.0
         self._req_velocity = 0
         self._req_radius = 0
         self._req_left = 0
@@ -264,6 +342,13 @@ class SimulatedCreate:
             emitted = False
             while True:
                 tick_t = self._t0 + self._tick * oi.STREAM_PERIOD_S
+                if self._delayed and self._delayed[0][0] <= min(tick_t, t):
+                    due, data = self._delayed.popleft()
+                    self._integrate(due - self._time)
+                    self._time = max(self._time, due)
+                    self._receive(data)
+                    emitted |= bool(self._out)
+                    continue
                 if tick_t > t:
                     self._integrate(t - self._time)
                     self._time = t
@@ -296,13 +381,60 @@ class SimulatedCreate:
     # --- byte interface -----------------------------------------------------------------------
 
     def write(self, data: bytes | bytearray) -> int:
-        """Bytes from the host, executed at the current simulated time. Returns ``len(data)``."""
+        """Bytes from the host, executed at the current simulated time (or ``command_delay_s``
+        later). Returns ``len(data)``."""
         with self._lock:
-            self._in += data
-            self._process_input()
+            if self._line_mismatch():
+                self.ignored_bytes += len(data)  # framing errors: nothing the OI can read
+                return len(data)
+            if self.command_delay_s > 0:
+                self._delayed.append((self._time + self.command_delay_s, bytes(data)))
+                return len(data)
+            self._receive(bytes(data))
             if self._out:
                 self._output_ready.notify_all()
             return len(data)
+
+    def _receive(self, data: bytes) -> None:
+        if self._asleep:
+            self.ignored_bytes += len(data)
+            return
+        self._in += data
+        self._process_input()
+
+    # --- modem lines, baud rate, sleep --------------------------------------------------------
+
+    def set_modem_line(self, name: str, asserted: bool) -> None:
+        """The host set its port's RTS or DTR line. Asserting the line the cable wires to BRC
+        (``brc_line``) pulls the pin low; its release ends the pulse. A pulse resets the Passive
+        sleep counter and wakes a sleeping robot (OI off)."""
+        with self._lock:
+            if name != self.brc_line:
+                return
+            low = bool(asserted)
+            if low and not self._brc_low:
+                self.brc_pulses += 1
+                self._passive_since = self._time
+                if self._asleep:
+                    log.info("simulated %s: woken by a BRC pulse", self.model.value)
+                    self._asleep = False
+                    self._mode = OIMode.OFF
+                    self._in.clear()
+            self._brc_low = low
+
+    def set_line_baudrate(self, baudrate: int | None) -> None:
+        """The baud rate of the host's port (``None``: unknown, as for a pty or socket)."""
+        with self._lock:
+            self._line_baudrate = None if baudrate is None else int(baudrate)
+
+    def _line_mismatch(self) -> bool:
+        return self._line_baudrate is not None and self._line_baudrate != self.baudrate
+
+    @property
+    def asleep(self) -> bool:
+        """True while the robot sleeps (Passive too long without a BRC pulse)."""
+        with self._lock:
+            return self._asleep
 
     def read(self, size: int | None = None) -> bytes:
         """Up to ``size`` (default all) bytes the robot has sent and nobody has read yet."""
@@ -378,6 +510,17 @@ class SimulatedCreate:
             self._overcurrents = Overcurrents(left_wheel=bool(left_wheel),
                                               right_wheel=bool(right_wheel))
 
+    def set_low_battery(self, low: bool) -> None:
+        """A nearly empty battery: charge (packet 25) down to 2 % of capacity (26), voltage (22)
+        12.0 V; ``False`` restores a charged battery."""
+        with self._lock:
+            if low:
+                self._charge_mah = 0.02 * self.capacity_mah
+                self.voltage_mv = 12000
+            elif self.voltage_mv == 12000:
+                self._charge_mah = 2500.0
+                self.voltage_mv = 15200 if self.model is Model.CREATE2 else 14800
+
     def set_pose(self, pose: Pose) -> None:
         """Move the robot (the world resolving a collision, a test placing it)."""
         with self._lock:
@@ -434,14 +577,38 @@ class SimulatedCreate:
     def _integrate(self, dt: float) -> None:
         if dt <= 0:
             return
+        if self.accel_mm_s2 is None:
+            self._integrate_at(dt, *self._target_speeds())
+            return
+        # ramps: in pieces short enough that a speed is nearly constant over each
+        remaining = dt
+        while remaining > 1e-12:
+            h = min(remaining, _RAMP_STEP_S)
+            tl, tr = self._target_speeds()
+            dv = self.accel_mm_s2 * h
+            vl = self._wheel_left + max(-dv, min(dv, tl - self._wheel_left))
+            vr = self._wheel_right + max(-dv, min(dv, tr - self._wheel_right))
+            self._integrate_at(h, vl, vr, mean=(0.5 * (self._wheel_left + vl),
+                                                0.5 * (self._wheel_right + vr)))
+            remaining -= h
+
+    def _target_speeds(self) -> tuple[float, float]:
+        top = self.top_speed_mm_s
+        return (max(-top, min(top, self._cmd_left)), max(-top, min(top, self._cmd_right)))
+
+    def _integrate_at(self, dt: float, vl: float, vr: float,
+                      mean: tuple[float, float] | None = None) -> None:
+        """Turn the wheels for ``dt`` ending at speeds (vl, vr), at ``mean`` speeds meanwhile."""
+        self._wheel_left, self._wheel_right = vl, vr
+        ml, mr = mean if mean is not None else (vl, vr)
         # the body moves; what the wheels turned is what encoders, distance and angle see
-        dl, dr = self.body.drive(left=self._cmd_left, right=self._cmd_right, dt=dt)
+        dl, dr = self.body.drive(left=ml, right=mr, dt=dt)
         if dl == 0.0 and dr == 0.0:
             return
-        self._enc_left += dl / MM_PER_COUNT
-        self._enc_right += dr / MM_PER_COUNT
-        self._dist_acc += 0.5 * (dl + dr)
-        self._angle_acc += math.degrees((dr - dl) / self.wheel_base_mm)
+        self._enc_left += dl * self.encoder_scale / MM_PER_COUNT
+        self._enc_right += dr * self.encoder_scale / MM_PER_COUNT
+        self._dist_acc += 0.5 * (dl + dr) * self.encoder_scale
+        self._angle_acc += math.degrees((dr - dl) * self.encoder_scale / self.wheel_base_mm)
         self._charge_mah = max(0.0, self._charge_mah + self._current_ma() * dt / 3600.0)
 
     def _current_ma(self) -> int:
@@ -475,11 +642,27 @@ class SimulatedCreate:
             log.info("safe mode: %s, stopping and reverting to passive",
                      "wheel drop" if dropped else "cliff")
             self._stop_wheels()
-            self._mode = OIMode.PASSIVE
+            self._enter_passive()
+
+    def _enter_passive(self) -> None:
+        if self._mode is not OIMode.PASSIVE:
+            self._passive_since = self._time
+        self._mode = OIMode.PASSIVE
 
     def _on_tick(self) -> bool:
         """One 15 ms sensor update; returns True if a stream frame was emitted."""
         self._safety_check()
+        if self.encoder_noise_counts > 0.0 and (self._wheel_left or self._wheel_right):
+            self._enc_left += self._rng.gauss(0.0, self.encoder_noise_counts)
+            self._enc_right += self._rng.gauss(0.0, self.encoder_noise_counts)
+        if (not self._asleep and self._mode is OIMode.PASSIVE
+                and self._time - self._passive_since >= self.sleep_after_s):
+            log.info("simulated %s: asleep after %.0f s in Passive without a BRC pulse",
+                     self.model.value, self._time - self._passive_since)
+            self._asleep = True
+            self._stream_active = False
+        if self._asleep:
+            return False
         if self._stream_active and self._stream_ids:
             self._emit(self._stream_frame())
             self.frames_sent += 1
@@ -499,6 +682,8 @@ class SimulatedCreate:
         return body + bytes((-sum(body) & 0xFF,))
 
     def _emit(self, data: bytes) -> None:
+        if self._line_mismatch():
+            return  # at the wrong baud rate the host reads nothing it can use
         self._out += data
         excess = len(self._out) - self._max_output
         if excess > 0:
@@ -557,7 +742,7 @@ class SimulatedCreate:
         active = mode in (OIMode.SAFE, OIMode.FULL)
         if op == Opcode.START:
             self._stop_wheels()
-            self._mode = OIMode.PASSIVE
+            self._enter_passive()
         elif op in (Opcode.SAFE, Opcode.CONTROL):
             self._mode = OIMode.SAFE
             if self.model is Model.CREATE2:
@@ -580,7 +765,7 @@ class SimulatedCreate:
                 self._emit(_BANNER)
         elif op in (Opcode.POWER, Opcode.SPOT, Opcode.CLEAN, Opcode.MAX, Opcode.SEEK_DOCK):
             self._stop_wheels()  # cleaning/demo modes are not simulated: they just end control
-            self._mode = OIMode.PASSIVE
+            self._enter_passive()
         elif op == Opcode.DRIVE:
             if not active:
                 return False

@@ -9,6 +9,10 @@ in ``serial.protocol_handler_packages`` and uses its ``Serial`` class;
     createsim://NAME                      the SimulatedCreate registered as NAME (its own clock)
     createsim://?model=create1&left_scale=0.97&seed=3
 
+The port's baud rate reaches the robot (it answers only at its own: 115200 for a Create 2), and
+its RTS and DTR lines reach the robot's Baud Rate Change pin where the cable wires one of them
+there (``brc_line``, RTS by default): asserting the line pulls BRC low.
+
 A new robot from the URL runs in real time: every read, write and ``in_waiting`` first catches
 the simulation up to ``time.monotonic()``. A registered robot (:func:`register`) keeps its
 injected clock: the port catches it up to that clock (whoever advances the clock drives the
@@ -68,7 +72,7 @@ def lookup(name: str) -> SimulatedCreate:
             raise SerialException(f"no simulated Create registered as {name!r}") from None
 
 
-_FLOAT_OPTIONS = {"left_scale", "right_scale", "slip_std"}
+_FLOAT_OPTIONS = {"left_scale", "right_scale", "slip_std", "encoder_scale"}
 
 
 def _sim_from_url(url: str) -> SimulatedCreate:
@@ -91,10 +95,12 @@ def _sim_from_url(url: str) -> SimulatedCreate:
                 kwargs[key] = float(value)
             elif key == "seed":
                 kwargs["seed"] = int(value)
+            elif key == "brc_line":
+                kwargs["brc_line"] = None if value in ("", "none") else value
             else:
                 raise SerialException(
                     f"{url}: unknown option {key!r} (model, left_scale, right_scale, slip_std, "
-                    "seed)")
+                    "encoder_scale, seed, brc_line)")
         except ValueError as exc:
             raise SerialException(f"{url}: bad value for {key}: {exc}") from None
     try:
@@ -119,13 +125,19 @@ class Serial(SerialBase):
             raise SerialException("Port is already open.")
         self.sim = _sim_from_url(self.portstr)
         self.is_open = True
+        self._reconfigure_port()
 
     def close(self) -> None:
         self.is_open = False
+        if self.sim is not None:
+            self.sim.set_line_baudrate(None)
         self.sim = None
 
     def _reconfigure_port(self, *args: Any, **kwargs: Any) -> None:
-        """Line settings mean nothing to the simulator (a Baud command is recorded by it)."""
+        """The port's baud rate goes to the simulated robot, which hears nothing at another
+        rate than its own; the other line settings mean nothing to it."""
+        if self.sim is not None:
+            self.sim.set_line_baudrate(self._baudrate)
 
     def _live(self) -> SimulatedCreate:
         if not self.is_open or self.sim is None:
@@ -176,10 +188,11 @@ class Serial(SerialBase):
         pass
 
     def _update_rts_state(self) -> None:
-        pass
+        """RTS reaches the robot's BRC pin where the cable wires it there (``brc_line``)."""
+        self._live().set_modem_line("rts", bool(self._rts_state))
 
     def _update_dtr_state(self) -> None:
-        pass
+        self._live().set_modem_line("dtr", bool(self._dtr_state))
 
     @property
     def cts(self) -> bool:

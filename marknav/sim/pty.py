@@ -5,6 +5,11 @@ to a USB-serial cable: our driver, pycreate2, a terminal program. The pty is put
 (``tty.setraw``): a cooked pty would treat 0x13 as XOFF and turn 13 into 10, and both bytes occur
 in OI data.
 
+The robot hears the line speed the client sets on the slave (a pty pair shares its termios: the
+master reads the speed the client chose): at another rate than the robot's own nothing gets
+through, as on a real cable. A pty has no modem lines, so no Baud Rate Change pulse reaches the
+robot through it.
+
 A server thread moves bytes between the pty master and the simulator and keeps the simulation
 caught up with the simulator's clock (real time with a ``MonotonicClock``), waking at least at
 every 15 ms stream tick. Closing the master (:meth:`PtyServer.close`) is what an unplugged cable
@@ -18,6 +23,7 @@ import errno
 import logging
 import os
 import select
+import termios
 import threading
 import tty
 from types import TracebackType
@@ -29,6 +35,9 @@ __all__ = ["PtyServer"]
 log = logging.getLogger(__name__)
 
 _MAX_WAIT_S = 0.005
+#: termios speed constants -> baud rates the OI uses.
+_SPEEDS = {getattr(termios, f"B{b}"): b for b in (
+    300, 600, 1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400)}
 _MIN_WAIT_S = 0.0005
 
 
@@ -116,6 +125,7 @@ class PtyServer:
         sim = self.sim
         try:
             while not self._stop.is_set():
+                self._line_speed(master)
                 sim.sync()
                 self._flush_output(master)
                 wait = sim.next_tick_time() - sim.clock.now()
@@ -135,11 +145,20 @@ class PtyServer:
                         raise
                     if data:
                         self.bytes_in += len(data)
+                        self._line_speed(master)  # set by the client before it wrote these
                         sim.sync()
                         sim.write(data)
         except Exception as exc:  # a server thread must not die silently
             self.error = f"{type(exc).__name__}: {exc}"
             log.exception("pty server stopped")
+
+    def _line_speed(self, master: int) -> None:
+        """Tell the robot the baud rate the client set (``None`` if it is not an OI rate)."""
+        try:
+            speed = termios.tcgetattr(master)[5]
+        except (termios.error, OSError):
+            return
+        self.sim.set_line_baudrate(_SPEEDS.get(speed))
 
     def _flush_output(self, master: int) -> None:
         data = self.sim.read()

@@ -60,6 +60,8 @@ __all__ = [
     "Conditions",
     "Contact",
     "Crossing",
+    "FaultEvent",
+    "FrictionPatch",
     "MarkSpec",
     "RobotStart",
     "Wall",
@@ -76,6 +78,8 @@ __all__ = [
     "passed_on",
     "push_out",
     "random_conditions",
+    "random_patches",
+    "random_realism",
 ]
 
 #: A mark's radius when neither the world file nor the caller gives one (the brief's example).
@@ -108,6 +112,38 @@ WHEEL_MISMATCH_MAX = 0.05  # |right/left − 1|
 WHEEL_SLIP_MAX = 0.02
 LATENCY_FRAMES_RANGE = (0, 2)
 MARK_YAW_MAX_DEG = 45.0
+
+# --- randomised realism (docs/explanation/simulator-realism.md: each range's source) ------
+#: Camera frame rate, Hz: UVC webcams deliver 30 fps, and 15 fps when auto-exposure lengthens
+#: the exposure in dim indoor light.
+FRAME_RATE_RANGE_HZ = (15.0, 30.0)
+#: Fraction of frames that never arrive (a busy USB bus, MJPEG over Wi-Fi).
+DROPPED_FRAMES_RANGE = (0.0, 0.05)
+#: Exposure time, ms: indoor auto-exposure runs 5 ms up to a whole frame period (33 ms at 30 fps).
+EXPOSURE_RANGE_MS = (5.0, 33.0)
+#: Amplitude of auto-exposure's slow brightness swing (fraction), and its period, s.
+EXPOSURE_DRIFT_RANGE = (0.0, 0.15)
+EXPOSURE_PERIOD_RANGE_S = (3.0, 10.0)
+#: Saturation of printed marks relative to full (inkjet and laser primaries on paper, as a
+#: camera sees them), and the spread of saturation and hue from mark to mark.
+MARK_SATURATION_RANGE = (0.75, 1.0)
+MARK_SATURATION_SPREAD_MAX = 0.08
+MARK_HUE_SPREAD_MAX = 3.0
+#: Encoder counts per nominal count (worn tyres, a wheel off the spec's 72 mm diameter).
+ENCODER_SCALE_RANGE = (0.98, 1.02)
+#: σ of encoder noise per wheel and 15 ms tick, counts (0.44 mm per count, Create 2).
+ENCODER_NOISE_RANGE_COUNTS = (0.0, 1.0)
+#: Wheel acceleration, mm/s² (not in the OI spec; see the realism page).
+ACCEL_RANGE_MM_S2 = (400.0, 1000.0)
+#: Delay from a host write to the robot acting on it, ms: a USB-serial adapter 1–16 ms (FTDI
+#: latency timer), Bluetooth serial up to ~40 ms.
+COMMAND_DELAY_RANGE_MS = (1.0, 40.0)
+#: Top wheel speed with the battery's voltage under load, mm/s (users report 330 for 500 commanded).
+TOP_SPEED_RANGE_MM_S = (330.0, 500.0)
+#: Friction patches (rugs, polished or dusty floor) per generated world, their radius and slip.
+PATCHES_RANGE = (0, 2)
+PATCH_RADIUS_RANGE_MM = (300.0, 600.0)
+PATCH_SLIP_RANGE = (0.02, 0.15)
 
 # --- generated courses ------------------------------------------------------------------------
 #: Distance along the course between consecutive marks.
@@ -256,6 +292,27 @@ class Conditions(_Strict):
       (round objects of near-mark colours on the horizon, off the course).
     - ``lens``: the camera's distortion and principal point (default a pinhole; randomised
       worlds draw a webcam's, :func:`marknav.sim.lens.random_lens`).
+    - ``frame_rate_hz``: frames the camera takes per second, apart from the control rate (0: one
+      frame per control cycle, taken when it is read). Webcams: 30, or 15 in dim light.
+    - ``dropped_frames``: probability that a frame taken never arrives (0..1).
+    - ``exposure_ms``: exposure time, ms: the robot turning during it smears the image
+      sideways by the angle turned times the focal length (motion blur). 0: none.
+    - ``exposure_drift``: amplitude of the auto-exposure's slow brightness swing (fraction of
+      the brightness), a sine of period ``exposure_period_s``.
+    - ``exposure_period_s``: period of the exposure drift, s.
+    - ``mark_saturation``: saturation of the marks' paint relative to full (printed marks are
+      not fully saturated: 0.75..1 on camera).
+    - ``mark_saturation_spread``: each mark's saturation differs by up to ± this fraction.
+    - ``mark_hue_spread``: each mark's hue differs from its colour's centre by up to ± this
+      many OpenCV hue units.
+    - ``encoder_scale``: encoder counts per nominal count of ground travel (odometry's scale
+      error: worn tyres, a wheel diameter off 72 mm); ``marknav calibrate-odometry`` measures it.
+    - ``encoder_noise_counts``: σ of noise on each encoder per 15 ms sensor tick, counts.
+    - ``accel_mm_s2``: the wheels' largest acceleration, mm/s² (0: speed changes at once).
+    - ``command_delay_ms``: delay from the host writing a command to the robot acting on it
+      (serial adapter, Bluetooth), ms.
+    - ``top_speed_mm_s``: the fastest a wheel turns with the battery's voltage under load
+      (battery sag), mm/s; faster commands are clipped per wheel.
     """
 
     lighting_gain: _Gain = 1.0
@@ -279,6 +336,19 @@ class Conditions(_Strict):
     distractors: Annotated[int, Field(ge=0, le=40)] = 0
     #: The camera's lens (distortion, principal point): :class:`marknav.sim.lens.Lens`.
     lens: Lens = Lens()
+    frame_rate_hz: Annotated[float, Field(ge=0.0, le=240.0, allow_inf_nan=False)] = 0.0
+    dropped_frames: Annotated[float, Field(ge=0.0, le=0.9, allow_inf_nan=False)] = 0.0
+    exposure_ms: Annotated[float, Field(ge=0.0, le=200.0, allow_inf_nan=False)] = 0.0
+    exposure_drift: Annotated[float, Field(ge=0.0, le=0.9, allow_inf_nan=False)] = 0.0
+    exposure_period_s: Annotated[float, Field(gt=0.0, le=600.0, allow_inf_nan=False)] = 6.0
+    mark_saturation: Annotated[float, Field(gt=0.0, le=1.0, allow_inf_nan=False)] = 1.0
+    mark_saturation_spread: Annotated[float, Field(ge=0.0, le=0.5, allow_inf_nan=False)] = 0.0
+    mark_hue_spread: Annotated[float, Field(ge=0.0, le=30.0, allow_inf_nan=False)] = 0.0
+    encoder_scale: Annotated[float, Field(ge=0.5, le=1.5, allow_inf_nan=False)] = 1.0
+    encoder_noise_counts: Annotated[float, Field(ge=0.0, le=20.0, allow_inf_nan=False)] = 0.0
+    accel_mm_s2: Annotated[float, Field(ge=0.0, le=20000.0, allow_inf_nan=False)] = 0.0
+    command_delay_ms: Annotated[float, Field(ge=0.0, le=2000.0, allow_inf_nan=False)] = 0.0
+    top_speed_mm_s: Annotated[float, Field(gt=0.0, le=500.0, allow_inf_nan=False)] = 500.0
 
     @field_validator("cast", mode="before")
     @classmethod
@@ -304,6 +374,52 @@ class Conditions(_Strict):
         return (k * b, k * g, k * r)
 
 
+class FrictionPatch(_Strict):
+    """A patch of floor where the wheels slip: a disc of ``radius_mm`` around (x_mm, y_mm) in
+    which a wheel loses ``slip`` of its travel (a rug, a polished or dusty patch). Odometry does
+    not see it; one wheel on the patch and one off turns the robot."""
+
+    x_mm: _Finite
+    y_mm: _Finite
+    radius_mm: Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
+    slip: Annotated[float, Field(ge=0.0, lt=1.0, allow_inf_nan=False)]
+
+    def contains(self, x: float, y: float) -> bool:
+        return (x - self.x_mm) ** 2 + (y - self.y_mm) ** 2 <= self.radius_mm ** 2
+
+
+#: The sides each fault can happen on.
+_FAULT_SIDES: dict[str, tuple[str, ...]] = {
+    "cliff": ("left", "front_left", "front_right", "right", "both"),
+    "wheel_drop": ("left", "right", "both"),
+    "overcurrent": ("left", "right", "both"),
+    "bump": ("left", "right", "both"),
+    "low_battery": ("both",),
+}
+
+
+class FaultEvent(_Strict):
+    """A fault that happens at ``t_s`` seconds of the run, read by the robot's own sensors (the
+    byte-level simulated Create's stream packets): ``cliff`` (packets 9–12; ``both``: the two
+    front sensors), ``wheel_drop`` (packet 7 bits 2–3), ``overcurrent`` (packet 14),
+    ``low_battery`` (charge, packet 25, down to 2 % of capacity, packet 26; voltage 12 V) or
+    ``bump`` (packet 7 bits 0–1, the robot pinned). ``side`` says which sensor; it lasts
+    ``duration_s`` seconds (``null``: to the end of the run)."""
+
+    t_s: Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
+    fault: Literal["cliff", "wheel_drop", "overcurrent", "low_battery", "bump"]
+    side: Literal["left", "right", "both", "front_left", "front_right"] = "both"
+    duration_s: Annotated[float, Field(gt=0.0, allow_inf_nan=False)] | None = None
+
+    @model_validator(mode="after")
+    def _side_fits(self) -> FaultEvent:
+        sides = _FAULT_SIDES[self.fault]
+        if self.side not in sides:
+            raise ValueError(f"a {self.fault} happens on side {', '.join(sides)}, "
+                             f"not {self.side}")
+        return self
+
+
 class Background(_Strict):
     """What the camera sees behind the marks: a textured room drawn from ``seed``, with
     ``clutter`` non-circular coloured shapes (posters, tape stripes) on the far wall."""
@@ -322,6 +438,8 @@ class World(_Strict):
     boxes: tuple[Box, ...] = ()
     conditions: Conditions = Conditions()
     background: Background = Background()
+    patches: tuple[FrictionPatch, ...] = ()
+    events: tuple[FaultEvent, ...] = ()
     #: The course: the mark (index into ``marks``) each waypoint must pass, in route order; a mark
     #: may appear more than once. ``None``: the marks in file order, one per waypoint.
     course: tuple[Annotated[int, Field(ge=0)], ...] | None = None
@@ -500,6 +618,50 @@ def random_conditions(rng: np.random.Generator) -> Conditions:
     )
 
 
+def random_realism(rng: np.random.Generator) -> dict[str, float]:
+    """The realism conditions (camera timing and exposure, printed marks, encoders, wheels,
+    command link, battery) drawn uniformly from the module's ranges, as updates to
+    :class:`Conditions`. From its own random stream, so the other draws of a world stay put."""
+    def draw(lo_hi: tuple[float, float]) -> float:
+        return float(rng.uniform(*lo_hi))
+
+    return {
+        "frame_rate_hz": round(draw(FRAME_RATE_RANGE_HZ), 1),
+        "dropped_frames": draw(DROPPED_FRAMES_RANGE),
+        "exposure_ms": draw(EXPOSURE_RANGE_MS),
+        "exposure_drift": draw(EXPOSURE_DRIFT_RANGE),
+        "exposure_period_s": draw(EXPOSURE_PERIOD_RANGE_S),
+        "mark_saturation": draw(MARK_SATURATION_RANGE),
+        "mark_saturation_spread": draw((0.0, MARK_SATURATION_SPREAD_MAX)),
+        "mark_hue_spread": draw((0.0, MARK_HUE_SPREAD_MAX)),
+        "encoder_scale": draw(ENCODER_SCALE_RANGE),
+        "encoder_noise_counts": draw(ENCODER_NOISE_RANGE_COUNTS),
+        "accel_mm_s2": draw(ACCEL_RANGE_MM_S2),
+        "command_delay_ms": draw(COMMAND_DELAY_RANGE_MS),
+        "top_speed_mm_s": draw(TOP_SPEED_RANGE_MM_S),
+    }
+
+
+def random_patches(
+    rng: np.random.Generator, course: Sequence[tuple[float, float]], start: tuple[float, float]
+) -> tuple[FrictionPatch, ...]:
+    """Friction patches on the way: each centred at a random point of a random leg of the course
+    (start → first mark, mark → mark), its radius and slip drawn from the module's ranges."""
+    lo, hi = PATCHES_RANGE
+    n = int(rng.integers(lo, hi + 1))
+    points = [start, *course]
+    out: list[FrictionPatch] = []
+    for _ in range(n if len(points) > 1 else 0):
+        leg = int(rng.integers(len(points) - 1))
+        f = float(rng.uniform(0.2, 0.8))
+        a, b = points[leg], points[leg + 1]
+        out.append(FrictionPatch(
+            x_mm=round(a[0] + f * (b[0] - a[0]), 1), y_mm=round(a[1] + f * (b[1] - a[1]), 1),
+            radius_mm=round(float(rng.uniform(*PATCH_RADIUS_RANGE_MM)), 1),
+            slip=round(float(rng.uniform(*PATCH_SLIP_RANGE)), 3)))
+    return tuple(out)
+
+
 def _bearing(frm: tuple[float, float], heading: float, to: tuple[float, float]) -> float:
     return wrap_angle(math.atan2(to[1] - frm[1], to[0] - frm[0]) - heading)
 
@@ -517,6 +679,7 @@ def generate_world(
     start: RobotStart | None = None,
     clutter: int = Background().clutter,
     engine: Literal["builtin", "mujoco"] = "builtin",
+    patches: bool = False,
 ) -> World:
     """A world for ``route`` (colours in order) that the route can be driven through.
 
@@ -529,8 +692,12 @@ def generate_world(
     ``MAX_SEARCH_TURN_DEG``. After ``GENERATION_TRIES`` failed draws the offset's side flips; after
     as many again the mark goes on the axis, at the longest spacing. With
     ``conditions="randomised"`` the image/wheel conditions (:func:`random_conditions`) and every
-    mark's yaw (±``MARK_YAW_MAX_DEG``) are drawn too; for ``engine="mujoco"`` the yaw goes up to
-    ±60° and the room gets MuJoCo's lights, textures, occluders and distractors
+    mark's yaw (±``MARK_YAW_MAX_DEG``) are drawn too, and from streams of their own the
+    realism conditions (:func:`random_realism`) and, with ``patches``, friction patches on the
+    course (:func:`random_patches`: not drawn by default — a patch under one wheel during a
+    bypass, with the mark out of view, turns the robot where odometry cannot see it; see
+    docs/explanation/simulator-realism.md). For ``engine="mujoco"`` the yaw goes up to ±60° and
+    the room gets MuJoCo's lights, textures, occluders and distractors
     (:func:`marknav.sim.mujoco.scene.random_scene`, its own stream: the course is the same).
     Same arguments and seed → same world.
     """
@@ -549,6 +716,8 @@ def generate_world(
         # The lens from its own stream, so the other draws stay what they were.
         cond = cond.model_copy(update={"lens": random_lens(np.random.default_rng([int(seed),
                                                                                 0x1E45]))})
+        realism = np.random.default_rng([int(seed), 0x4EA1])
+        cond = cond.model_copy(update=random_realism(realism))
     elif conditions == "default":
         cond = Conditions()
     else:
@@ -634,11 +803,15 @@ def generate_world(
     if engine == "mujoco" and randomised:
         scene = random_scene(int(seed), [(m.x_mm - p0.x, m.y_mm - p0.y) for m in marks],
                              list(route), clearance_mm=clearance_mm)
+    drawn = (random_patches(np.random.default_rng([int(seed), 0xF41C]),
+                            [m.xy for m in marks], (p0.x, p0.y)) if randomised and patches
+             else ())
     return World(
         marks=tuple(marks),
         robot=robot,
         conditions=cond,
         background=Background(seed=int(seed), clutter=clutter),
+        patches=drawn,
         course=tuple(range(len(marks))),
         mujoco=scene,
     )

@@ -24,8 +24,22 @@ DESCRIPTIONS: dict[str, str] = {
     "World.walls": "Walls, as line segments; the robot's bumper hits them.",
     "World.boxes": "Rectangular obstacles; the robot's bumper hits them.",
     "World.conditions": "Image and wheel conditions: light, colour cast, noise, blur, unequal "
-    "wheels, slip, camera latency.",
+    "wheels, slip, camera latency; camera frame rate, dropped frames, exposure (motion blur, "
+    "drift), printed marks' colour; encoders, acceleration, command delay, battery sag.",
     "World.background": "The room behind the marks: a texture seed and distracting clutter.",
+    "World.patches": "Friction patches: floor regions where a wheel loses part of its travel "
+    "(a rug, a polished or dusty patch); odometry does not see it.",
+    "World.events": "Timed faults read through the simulated Create's sensor packets: cliff, "
+    "wheel drop, overcurrent, low battery, a held bump.",
+    "FrictionPatch.x_mm": "Centre x, mm.",
+    "FrictionPatch.y_mm": "Centre y, mm.",
+    "FrictionPatch.radius_mm": "Radius of the patch, mm.",
+    "FrictionPatch.slip": "Fraction of a wheel's travel lost on the patch (0..1).",
+    "FaultEvent.t_s": "Run time at which the fault starts, s.",
+    "FaultEvent.fault": "cliff, wheel_drop, overcurrent, low_battery or bump.",
+    "FaultEvent.side": "Which sensor: left, right, both (cliff: also front_left, front_right; "
+    "both = the two front sensors).",
+    "FaultEvent.duration_s": "How long the fault lasts, s; null: to the end of the run.",
     "MarkSpec.colour": "Colour name, one of the mission's marks.colours.",
     "MarkSpec.x_mm": "Centre of the mark, x (east), mm.",
     "MarkSpec.y_mm": "Centre of the mark, y (north), mm.",

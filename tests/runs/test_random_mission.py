@@ -79,8 +79,15 @@ def test_a_seed_gives_one_mission_and_its_files_replay_it(
     a, b = random_mission(17), random_mission(17)
     assert a.mission_doc == b.mission_doc and a.world_doc == b.world_doc
     assert random_mission(18).world_doc != a.world_doc
+    cond = a.world.conditions
+    palest = cond.mark_saturation - cond.mark_saturation_spread  # the palest printed mark
     for name, spec in a.mission_doc["marks"]["colours"].items():
-        assert (tuple(spec["hue"]), spec["sat_min"]) == PALETTE[name]
+        hue, full_paint_floor = PALETTE[name]
+        assert tuple(spec["hue"]) == hue
+        # the floor a user would calibrate for these printed marks
+        assert spec["sat_min"] == round(full_paint_floor * min(1.0, palest))
+    assert {c: spec.sat_min for c, spec in a.mission.marks.colours.items()} == {
+        c: spec["sat_min"] for c, spec in a.mission_doc["marks"]["colours"].items()}
     out = tmp_path / "m"
     assert main(["random-mission", "--seed", "17", "--out", str(out)]) == 0
     assert f"replay: marknav run {out / 'mission.yaml'} --seed 17" in capsys.readouterr().out

@@ -157,7 +157,8 @@ def test_sim_robot_command_serves_until_interrupted(sig: signal.Signals, model: 
         assert proc.stdout is not None
         path = proc.stdout.readline().strip()
         assert path.startswith("/dev/")
-        port = serial.Serial(path, 115200, timeout=1.0)
+        # the simulated robot answers only at its own baud rate, as a real one does
+        port = serial.Serial(path, 57600 if model == "create1" else 115200, timeout=1.0)
         try:
             port.write(bytes([128, 142, 35]))
             assert port.read(1) == bytes([1])  # Passive after Start

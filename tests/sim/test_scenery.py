@@ -12,7 +12,14 @@ import pytest
 from marknav.planning.kinematics import Pose
 from marknav.sim.camera import CameraConfig, Renderer
 from marknav.sim.scenery import PALETTE_MARGIN, PHOTOS, near_hues, off_palette_hue, random_room
-from marknav.sim.world import Conditions, MarkSpec, World, generate_world, random_conditions
+from marknav.sim.world import (
+    Conditions,
+    MarkSpec,
+    World,
+    generate_world,
+    random_conditions,
+    random_realism,
+)
 from marknav.vision.detect import Detector
 from marknav.vision.palette import ColourRange
 
@@ -113,8 +120,9 @@ def test_randomised_worlds_draw_rooms_on_their_own_stream() -> None:
     assert any(r["occluders"] for r in rooms) and any(r["distractors"] for r in rooms)
     world = generate_world(["red", "green"], seed=5, clearance_mm=300, conditions="randomised")
     assert world.conditions.model_dump(include=set(random_room(5))) == random_room(5)
-    # The other conditions are drawn as before (the room, like the lens, has its own stream).
+    # The other conditions are drawn as before (the room, like the lens and the realism
+    # conditions, has its own stream).
     before = random_conditions(np.random.default_rng([5, 0x5EED]))
-    own_streams = {*random_room(5), "lens"}
+    own_streams = {*random_room(5), "lens", *random_realism(np.random.default_rng(0))}
     assert world.conditions.model_dump(exclude=own_streams) == \
         before.model_dump(exclude=own_streams)
