@@ -203,7 +203,7 @@ def random_mission(seed: int) -> RandomMission:
     palest = max(0.05, cond.mark_saturation - cond.mark_saturation_spread)
     if palest < 1.0:
         for c in colours:
-            colours[c]["sat_min"] = int(round(PALETTE[c][1] * palest))
+            colours[c]["sat_min"] = round(PALETTE[c][1] * palest)
         text = yaml.safe_dump(mission_doc, sort_keys=False)
         mission = parse_mission(load_yaml_text(text, f"<random mission {seed}>"))
     extra = _off_course(rng, base, route, clearance, radius)
