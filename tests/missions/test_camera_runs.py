@@ -41,10 +41,12 @@ def test_the_papers_law_on_the_simulated_camera_is_learnt(tmp_path: Path,
     law = json.loads(report.read_text())["range_law"]
     assert law["source"] == "mission camera.range" and law["started_from"]["b"] == -0.9434
     assert abs(_rel(law["started_from"], 1000.0)) > 0.2
-    second = law["at"][1]  # the law in use when the second mark was passed
-    # From 26 % (1 m) and 20 % (2 m) too far to within 5 % where the bypass is decided.
+    # From 26 % (1 m) and 20 % (2 m) too far to within 5 % where the bypass is decided, by
+    # the third mark: the randomised world's wheel acceleration (a real Create's) leaves fewer
+    # steady stretches to learn from before the second.
+    third = law["at"][2]  # the law in use when the third mark was passed
     for d in (600.0, 1000.0, 1500.0):
-        assert abs(_rel(second, d)) < 0.05
+        assert abs(_rel(third, d)) < 0.05
     assert law["rejected"] <= law["steps"]
 
 
