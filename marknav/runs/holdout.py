@@ -16,7 +16,14 @@ the figures that judge them are the held-out half's.
 - ``synthetic``: the benchmark's synthetic scenes with tilted, occluded and cast-lit marks
   (:func:`marknav.runs.bench_vision.render_scene`);
 - ``simulator``: frames of the simulator's renderer in dim, normal and bright light, with warm,
-  cool and no casts, each mark's truth the ellipse fitted to its projected rim.
+  cool and no casts, each mark's truth the ellipse fitted to its projected rim;
+- ``mujoco`` (only with the ``mujoco`` extra and headless OpenGL; ``mujoco=0`` leaves it out):
+  frames MuJoCo renders of the randomised rooms ``evaluate --engine mujoco`` drives through
+  (lamps with shadows and tints, dim rooms, textures, poles, near-colour distractors, marks
+  turned up to 60°), from poses along the course; the truth is the same projected rim (one
+  pinhole model for both renderers), marks behind a nearer mark are ignored, and frames are
+  tagged ``dim`` (median grey under 60 of 255) and ``turned`` (a mark seen at an axis ratio
+  under 0.6).
 
 **Scoring** (the issue's): a mark at least 80 % visible (whole in the image, not overlapped by a
 nearer mark, less than a fifth of its outline occluded) is found when a detection of the right
@@ -213,16 +220,79 @@ def _simulator(n: int) -> list[Frame]:
     return out
 
 
+def _mujoco(n: int) -> list[Frame]:
+    """``n`` MuJoCo frames of randomised rooms (see the module docstring); none without MuJoCo."""
+    from marknav.planning.kinematics import Pose
+    from marknav.sim.camera import CameraConfig, project_marks
+    from marknav.sim.lens import Lens
+    from marknav.sim.world import generate_world
+
+    if n <= 0:
+        return []
+    try:
+        from marknav.sim.mujoco.gl import import_mujoco
+
+        import_mujoco()
+    except Exception:  # no extra or no OpenGL: the corpus is left out, not the report
+        return []
+    from marknav.core.clock import ManualClock
+    from marknav.sim.mujoco.body import MujocoBody
+    from marknav.sim.mujoco.camera import MujocoCamera
+
+    config = CameraConfig()
+    rng = np.random.default_rng([13, 0x3D5C])
+    out: list[Frame] = []
+    k = 0
+    while len(out) < n:
+        world = generate_world(["red", "green", "blue", "red"], seed=2000 + k,
+                               clearance_mm=300.0, conditions="randomised", engine="mujoco")
+        world = world.with_conditions(world.conditions.model_copy(update={"lens": Lens()}))
+        k += 1
+        body = MujocoBody(world, tuple(DEFAULT_PALETTE), camera=config, shadows=True)
+        with MujocoCamera(body, clock=ManualClock(), seed=k) as camera:
+            for _ in range(3):  # three views per room: its set-up costs more than a frame
+                mark = world.marks[int(rng.integers(0, len(world.marks)))]
+                back = float(rng.uniform(700.0, 2500.0))
+                x = mark.x_mm + float(rng.uniform(-500.0, 500.0))
+                y = mark.y_mm - back
+                look = math.atan2(mark.y_mm - y, mark.x_mm - x) + float(rng.uniform(-0.3, 0.3))
+                pose = Pose(x, y, look)
+                body.set_pose(pose)
+                image = camera.render()
+                projected = sorted(project_marks(world, pose, config), key=lambda p: p.depth_mm)
+                marks: list[Truth] = []
+                ignore: list[Truth] = []
+                turned = False
+                for i, p in enumerate(projected):
+                    if len(p.polygon) < 5:
+                        continue
+                    (u, v), (w, h), ang = cv2.fitEllipse(p.polygon.astype(np.float32))
+                    a, b = 0.5 * max(w, h), 0.5 * min(w, h)
+                    if a < 5.0:
+                        continue
+                    truth = Truth(world.marks[p.index].colour, u, v, a, b,
+                                  (ang + (90.0 if w < h else 0.0)) % 180.0)
+                    hidden = any(_overlap(p.bbox, q.bbox) for q in projected[:i])
+                    seen = p.inside(config) and not hidden
+                    (marks if seen else ignore).append(truth)
+                    turned = turned or (seen and b < 0.6 * a)
+                grey = float(np.median(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)))
+                tags = (("dim",) if grey < 60.0 else ()) + (("turned",) if turned else ())
+                out.append(Frame("mujoco", f"room-{k}-{len(out)}", image, DEFAULT_PALETTE,
+                                 tuple(marks), tuple(ignore), tags=tags))
+    return out[:n]
+
+
 def _overlap(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
     return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
 
 
 def load_corpora(root: str | Path, *, composites_per_condition: int = 4, synthetic: int = 40,
-                 simulator: int = 36) -> list[Frame]:
+                 simulator: int = 36, mujoco: int = 60) -> list[Frame]:
     """Every corpus's frames (``root``: the source tree's ``tests/data``)."""
     root = Path(root)
     return (_real(root) + _composite(root, composites_per_condition) + _synthetic(synthetic)
-            + _simulator(simulator))
+            + _simulator(simulator) + _mujoco(mujoco))
 
 
 # ------------------------------------------------------------------------------- scoring

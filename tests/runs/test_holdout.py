@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+import pytest
 
 from marknav.runs.holdout import Frame, Truth, half, score
 from marknav.vision.detect import Detector
@@ -31,3 +32,28 @@ def test_score_counts_found_marks_false_marks_and_the_range_error() -> None:
     missed = score([Frame("t", "a", image, DEFAULT_PALETTE, (wrong,), counts_false=False)],
                    lambda palette: Detector(palette).detect)
     assert missed["recall"] == 0.0 and missed["false_per_frame"] is None
+
+
+def test_the_mujoco_corpus_has_truth_where_the_marks_are_drawn() -> None:
+    """Frames MuJoCo renders, with truths from the shared pinhole projection: each truth's
+    centre lies on paint of its colour (hue within the palette's range, saturated)."""
+    from marknav.runs.holdout import _mujoco
+    from marknav.sim.mujoco import gl
+
+    gl.backend()  # the headless renderer, chosen before anything imports mujoco
+    pytest.importorskip("mujoco")
+
+    frames = _mujoco(3)
+    assert len(frames) == 3 and all(f.corpus == "mujoco" for f in frames)
+    palette = {c.name: c for c in frames[0].palette}
+    checked = 0
+    for f in frames:
+        hsv = cv2.cvtColor(f.image, cv2.COLOR_BGR2HSV)
+        for t in f.marks:
+            if t.b < 4.0:
+                continue  # edge-on: the centre pixel may be the rim
+            h, s, _ = (int(v) for v in np.median(
+                hsv[int(t.y) - 1:int(t.y) + 2, int(t.x) - 1:int(t.x) + 2].reshape(-1, 3), axis=0))
+            assert palette[t.colour].contains(h) and s > 100, (f.name, t, h, s)
+            checked += 1
+    assert checked >= 2
