@@ -64,15 +64,19 @@ MODULES: dict[str, Module] = {
     # the ground truth per waypoint, from the true path alone
     "truth": Module("marknav/sim/truth.py", (
         "tests/sim/test_truth.py", "tests/sim/test_truth_edges.py")),
-    # the evaluation's verdict and statistics (not its process pool or its text)
-    "verdict": Module("marknav/runs/evaluate.py", (
+    # the evaluation's verdict of one run (not the run itself)
+    "verdict": Module("marknav/runs/evaluate_job.py", (
         "tests/runs/test_evaluate.py", "tests/runs/test_verdict_edges.py",
         "tests/missions/test_truth_runs.py"),
-        only=("marknav.runs.evaluate.xǁSeedResultǁ*",
-              "marknav.runs.evaluate.x_summarise*",
-              "marknav.runs.evaluate.x_wilson_interval*",
-              "marknav.runs.evaluate.x_percentile*",
-              "marknav.runs.evaluate.x__incident*")),
+        only=("marknav.runs.evaluate_job.xǁSeedResultǁ*",)),
+    # the evaluation's statistics over the runs (not its text)
+    "statistics": Module("marknav/runs/evaluate_stats.py", (
+        "tests/runs/test_evaluate.py", "tests/runs/test_verdict_edges.py",
+        "tests/missions/test_truth_runs.py"),
+        only=("marknav.runs.evaluate_stats.x_summarise*",
+              "marknav.runs.evaluate_stats.x_wilson_interval*",
+              "marknav.runs.evaluate_stats.x_percentile*",
+              "marknav.runs.evaluate_stats.x__incident*")),
 }
 
 #: Tests that measure wall-clock margins or spawn processes are never selected: a mutant runs

@@ -26,7 +26,7 @@ DISTANCES_MM = (600.0, 1000.0, 1500.0, 2000.0)
 def run(mission_path: str, seed: int, overrides: list[str]) -> dict[str, object]:
     from marknav.missions.overrides import parse_overrides
     from marknav.missions.schema import load_mission
-    from marknav.runs.evaluate import SeedResult, _quiet_runs
+    from marknav.runs.evaluate_job import SeedResult, _quiet_runs
     from marknav.runs.run import RunRequest, execute
     from marknav.sim.camera_model import sim_range_law
     from marknav.vision.estimate import PowerLaw

@@ -19,7 +19,7 @@ from marknav.vision.estimate import Pinhole, PowerLaw, RangeModel
 from marknav.vision.undistort import Intrinsics
 
 if TYPE_CHECKING:
-    from marknav.missions.schema import Mission
+    from marknav.missions.schema_mission import Mission
 
 __all__ = ["SelfDescribingCamera", "as_power_law", "mission_intrinsics", "mission_range_model",
            "range_model_of"]

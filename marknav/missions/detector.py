@@ -37,7 +37,8 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
-from marknav.missions.schema import ROBOT_TINT_LIMIT, Mission
+from marknav.missions.schema_camera import ROBOT_TINT_LIMIT
+from marknav.missions.schema_mission import Mission
 from marknav.vision.detect import Detector, DetectorConfig, Mark
 from marknav.vision.detect.geometry import U8Array
 from marknav.vision.horizon_learning import HorizonFit, HorizonLearner

@@ -73,8 +73,8 @@ def _measure(mission: str, seeds: Sequence[int], max_time_s: float, workers: int
              ) -> tuple[dict[str, Any], dict[int, dict[str, Any]]]:
     from distributed import Client, LocalCluster
 
-    from marknav.runs.evaluate import run_seed
     from marknav.runs.evaluate_backends import run_jobs
+    from marknav.runs.evaluate_job import run_seed
 
     t0 = time.perf_counter()
     with (LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,

@@ -1,8 +1,8 @@
 """Where the runs of an evaluation execute: this process, a pool of local worker processes, or
 an existing Dask cluster (issue 16).
 
-A job is ``(mission spec, seed)``; every backend runs :func:`marknav.runs.evaluate.run_seed`
-on it and hands each :class:`~marknav.runs.evaluate.SeedResult` to ``on_result`` as soon as
+A job is ``(mission spec, seed)``; every backend runs :func:`marknav.runs.evaluate_job.run_seed`
+on it and hands each :class:`~marknav.runs.evaluate_job.SeedResult` to ``on_result`` as soon as
 it arrives (in completion order; the summary sorts by seed). A run is deterministic for its
 seed, so the backend changes the wall time and nothing else.
 
