@@ -69,7 +69,10 @@ MEMORY_RANGE_MM = 4000.0
 MEMORY_PREFERENCE_MM = 500.0
 #: A remembered mark counts once seen in this many frames (one-frame false detections do not).
 MEMORY_MIN_SEEN = 3
-#: Forgotten after this many frames that should have seen it and did not.
+#: Forgotten after this many frames that should have seen it and did not — or as many as it was
+#: seen in, if more: the evidence for a mark confirmed in many frames outweighs a few misses (a
+#: mark turned toward edge-on as the robot closes in beside it falls under the detector's axis
+#: ratio and goes unseen while still there), and a one-frame false detection is still dropped.
 MEMORY_MAX_MISSES = 3
 #: A remembered target is recognised within this many association gates of its position...
 REMEMBERED_GATE_FACTOR = 2.5
@@ -129,8 +132,8 @@ def remember(known: Sequence[keys.KnownMark], marks: Sequence[keys.SeenMark], *,
     the remembered mark of its colour within the gate (latest position and time, one more
     ``seen``) or adds one. With ``pose`` and ``half_fov_rad``, a remembered mark well inside the
     view and near enough that this frame should have seen it, but did not, counts a ``missed``
-    frame; after :data:`MEMORY_MAX_MISSES` it is forgotten (a false detection, or a mark that
-    was moved)."""
+    frame; after :data:`MEMORY_MAX_MISSES` such frames, or as many as it was seen in if more, it
+    is forgotten (a false detection, or a mark that was moved)."""
     out = list(known)
     matched: set[int] = set()
     for m in marks:
@@ -163,7 +166,7 @@ def remember(known: Sequence[keys.KnownMark], marks: Sequence[keys.SeenMark], *,
             forward = c * dx + s * dy
             if 300.0 < forward < near and abs(c * dy - s * dx) < forward * tan_half:
                 k = replace(k, missed=k.missed + 1)
-                if k.missed >= MEMORY_MAX_MISSES:
+                if k.missed >= max(MEMORY_MAX_MISSES, k.seen):
                     continue
         kept.append(k)
     return tuple(kept)

@@ -146,9 +146,9 @@ def test_remember_updates_within_the_gate_adds_new_marks_and_ignores_far_ones():
 
 
 def test_a_remembered_mark_in_view_that_is_not_seen_is_forgotten():
-    """Long-course seed 0: a green mark read as blue for a moment became a remembered "blue"
-    where no blue stands; the robot searched for it in vain. Marks that should be in view but
-    are not seen for three frames are forgotten."""
+    """A green mark read as blue for a few frames must not become a remembered "blue" where no
+    blue stands (the robot would search for it in vain): a mark seen in three frames that
+    should be in view but is not seen for three frames is forgotten."""
     origin = Pose(0.0, 0.0, math.pi / 2)  # facing +y, as seen() assumes
     known = remember((), [seen("blue", 100, 2000)] * 3)
     assert known[0].seen == 3
@@ -163,6 +163,21 @@ def test_a_remembered_mark_in_view_that_is_not_seen_is_forgotten():
     behind = Pose(0.0, 3000.0, math.pi / 2)
     kept = remember(remember((), [seen("red", 0, 1500)]), [], pose=behind, half_fov_rad=half_fov)
     assert kept[0].missed == 0
+
+
+def test_a_mark_seen_in_many_frames_outlasts_as_many_misses():
+    """A mark confirmed in 12 frames, then unseen in view (turned edge-on as the robot closes
+    in beside it): kept through 11 misses, forgotten at the 12th."""
+    origin = Pose(0.0, 0.0, math.pi / 2)
+    half_fov = math.radians(28.5)
+    known = remember((), [seen("red", 100, 2000)])
+    for _ in range(11):
+        known = remember(known, [seen("red", 100, 2000)])
+    assert known[0].seen == 12
+    for expected_missed in range(1, 12):
+        known = remember(known, [], pose=origin, half_fov_rad=half_fov)
+        assert [(k.colour, k.missed) for k in known] == [("red", expected_missed)]
+    assert remember(known, [], pose=origin, half_fov_rad=half_fov) == ()
 
 
 def test_remembered_target_is_the_nearest_unpassed_mark_out_of_view():
