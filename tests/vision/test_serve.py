@@ -331,7 +331,9 @@ def test_a_stalled_camera_ends_streams_cleanly_and_recovers(
         finally:
             reader.close()
         assert wait_until(lambda: streamer.stalls == 1, 1.0)
-        assert any("delivered no frame for 0.3 s" in r.getMessage() for r in caplog.records)
+        # logged just after the count, outside the streamer's lock: wait for it as well
+        assert wait_until(lambda: any("delivered no frame for 0.3 s" in r.getMessage()
+                                      for r in caplog.records), 1.0)
         # the reopened camera delivers again; a new client gets its frames
         assert wait_until(lambda: len(opened) >= 2 and not streamer.stalled, 3.0)
         assert opened[0].closed
