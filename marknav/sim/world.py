@@ -66,6 +66,7 @@ __all__ = [
     "RobotStart",
     "Wall",
     "World",
+    "bumper_sides",
     "bumps",
     "check_against_palette",
     "check_course",
@@ -884,6 +885,15 @@ def clutter_items(world: World | Background) -> tuple[ClutterItem, ...]:
 # --- contacts ---------------------------------------------------------------------------------
 
 
+def bumper_sides(angle_rad: float) -> tuple[bool, bool]:
+    """(left, right): which bumper switches a contact at ``angle_rad`` from the heading (left
+    positive) presses: each side's arc of :data:`BUMPER_HALF_ARC_DEG`, both within
+    :data:`BOTH_BUMPS_HALF_ANGLE_DEG` of straight ahead."""
+    a = math.degrees(angle_rad)
+    return (-BOTH_BUMPS_HALF_ANGLE_DEG <= a <= BUMPER_HALF_ARC_DEG,
+            -BUMPER_HALF_ARC_DEG <= a <= BOTH_BUMPS_HALF_ANGLE_DEG)
+
+
 @dataclass(frozen=True)
 class Contact:
     """The robot touching an obstacle.
@@ -903,13 +913,11 @@ class Contact:
 
     @property
     def bump_left(self) -> bool:
-        a = math.degrees(self.angle_rad)
-        return -BOTH_BUMPS_HALF_ANGLE_DEG <= a <= BUMPER_HALF_ARC_DEG
+        return bumper_sides(self.angle_rad)[0]
 
     @property
     def bump_right(self) -> bool:
-        a = math.degrees(self.angle_rad)
-        return -BUMPER_HALF_ARC_DEG <= a <= BOTH_BUMPS_HALF_ANGLE_DEG
+        return bumper_sides(self.angle_rad)[1]
 
 
 @dataclass(frozen=True)

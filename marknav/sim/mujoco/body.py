@@ -22,7 +22,7 @@ from marknav.sim.camera import CameraConfig
 from marknav.sim.lens import LensWarp, lens_warp
 from marknav.sim.mujoco.gl import import_mujoco
 from marknav.sim.mujoco.model import CREATE2, DEFAULT_CAMERA, TIMESTEP_S, CreateSpec, build_model
-from marknav.sim.world import BOTH_BUMPS_HALF_ANGLE_DEG, BUMPER_HALF_ARC_DEG, World
+from marknav.sim.world import World, bumper_sides
 from marknav.vision.palette import ColourRange
 
 __all__ = ["BumperContact", "MujocoBody"]
@@ -47,13 +47,11 @@ class BumperContact:
 
     @property
     def bump_left(self) -> bool:
-        a = math.degrees(self.angle_rad)
-        return -BOTH_BUMPS_HALF_ANGLE_DEG <= a <= BUMPER_HALF_ARC_DEG
+        return bumper_sides(self.angle_rad)[0]
 
     @property
     def bump_right(self) -> bool:
-        a = math.degrees(self.angle_rad)
-        return -BUMPER_HALF_ARC_DEG <= a <= BOTH_BUMPS_HALF_ANGLE_DEG
+        return bumper_sides(self.angle_rad)[1]
 
 
 class MujocoBody:
