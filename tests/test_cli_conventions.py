@@ -115,7 +115,7 @@ def test_python_warnings_become_log_lines(verbosity: int, shown: bool) -> None:
 def test_ctrl_c_during_a_run_says_interrupted_once(tmp_path: Path,
                                                    monkeypatch: pytest.MonkeyPatch,
                                                    capsys: pytest.CaptureFixture[str]) -> None:
-    import marknav.runs.run as run_module
+    import marknav.runs.loop.run as run_module
 
     def interrupted(req: object) -> object:
         raise KeyboardInterrupt("SIGINT")

@@ -40,8 +40,8 @@ from marknav.robot import oi
 from marknav.robot.driver import CreateDriver
 from marknav.robot.packets import OIMode
 from marknav.robot.transport import open_port
-from marknav.sim.create import SimulatedCreate, WheelSpeeds
 from marknav.sim.pty import PtyServer
+from marknav.sim.simulated_create import SimulatedCreate, WheelSpeeds
 
 ROOT = Path(__file__).resolve().parents[1]
 SLALOM = ROOT / "missions" / "slalom.yaml"
@@ -395,8 +395,8 @@ def test_7_a_signal_while_importing_exits_130_without_a_traceback(tmp_path: Path
 
 def _run_with_injected_signal(monkeypatch: pytest.MonkeyPatch, target: str, sig: int,
                               after: bool = False) -> None:
-    """Wrap ``marknav.runs.run.<target>`` so that it sends ``sig`` to this process."""
-    import marknav.runs.run as runmod
+    """Wrap ``marknav.runs.loop.run.<target>`` so that it sends ``sig`` to this process."""
+    import marknav.runs.loop.run as runmod
 
     original = getattr(runmod, target)
 
@@ -438,7 +438,7 @@ def test_7_sigterm_outside_the_loop_still_writes_everything(
 def test_7_sigint_while_loading_names_no_report(monkeypatch: pytest.MonkeyPatch,
                                                 tmp_path: Path,
                                                 capsys: pytest.CaptureFixture[str]) -> None:
-    import marknav.runs.checks as checks
+    import marknav.runs.loop.checks as checks
 
     original = checks.load_mission
 
@@ -637,7 +637,7 @@ def test_7_a_signal_between_a_tick_and_its_record_keeps_the_count_whole(
         sig: int) -> None:
     """A signal that lands after the tree ticked but before the tick is logged (CI caught one:
     the report said 22 ticks, the log's last tick was n=20) is raised once the tick is written."""
-    from marknav.runs.runlog import Recorder
+    from marknav.runs.records.runlog import Recorder
 
     original = Recorder.panel
     calls = {"n": 0}
@@ -669,7 +669,7 @@ def test_7_a_view_that_blocks_cannot_keep_a_signal_from_stopping_the_wheels(
 ) -> None:
     """The live view draws outside the runner's signal hold: a terminal that blocks (a paused
     pager, a stalled SSH session) must not keep Ctrl-C or SIGTERM from stopping the run."""
-    import marknav.runs.display as display
+    import marknav.runs.views.display as display
 
     class StuckView:
         def __init__(self) -> None:
@@ -701,7 +701,7 @@ def test_7_a_verdict_reached_in_the_tick_a_signal_lands_in_stands(
 ) -> None:
     """The run's time limit is reached in the same tick as a SIGTERM: the report keeps the
     verdict (failed, time limit), the exit code says the run was interrupted."""
-    from marknav.runs.runlog import Recorder
+    from marknav.runs.records.runlog import Recorder
 
     original = Recorder.panel
 
@@ -893,8 +893,8 @@ def test_b7_a_signal_once_the_mission_was_read_leaves_a_report_and_a_log(
     """The mission file is read; a SIGINT lands while it is being checked (1.9–2.3 s into a
     real run): exit 130, and the report and the event log say aborted, interrupted."""
     import marknav.cli.run as cmd_run
-    import marknav.runs.checks as checks
-    import marknav.runs.run as runmod
+    import marknav.runs.loop.checks as checks
+    import marknav.runs.loop.run as runmod
 
     module = {"check_build": checks, "check_world": checks, "_request": cmd_run,
               "prepare": runmod, "execute": runmod}[target]
@@ -927,7 +927,7 @@ def test_b8_a_signal_during_the_final_write_keeps_the_outcome_and_exits_130(
         monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     """The run ended (time limit); a SIGTERM lands while the report is being written: the
     report is written whole with the run's outcome, the log ends with it, exit 130."""
-    from marknav.runs.report import RunReport
+    from marknav.runs.records.report import RunReport
 
     original = RunReport.write
 
@@ -996,7 +996,7 @@ def test_the_event_log_never_keeps_half_a_record_when_the_disk_fills(tmp_path: P
     path = tmp_path / "e.jsonl"
     code = ("import resource, sys\n"
             "resource.setrlimit(resource.RLIMIT_FSIZE, (1000, 1000))\n"
-            "from marknav.runs.report import EventLog\n"
+            "from marknav.runs.records.report import EventLog\n"
             f"log = EventLog({str(path)!r})\n"
             "for i in range(100):\n"
             "    log.write(i * 0.05, 'tick', n=i, pad='x' * 37)\n"

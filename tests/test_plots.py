@@ -154,8 +154,8 @@ def test_run_and_replay_plot(figures: list[Any], tmp_path: Path) -> None:
 
 
 def test_evaluate_accuracy_plot(figures: list[Any], tmp_path: Path) -> None:
-    from marknav.runs.evaluate import AccuracyResult, plot_accuracy
-    from marknav.sim.accuracy import AccuracyRow, AccuracyTable
+    from marknav.runs.evaluation.evaluate import AccuracyResult, plot_accuracy
+    from marknav.runs.metrics.position_accuracy import AccuracyRow, AccuracyTable
 
     rows = tuple(AccuracyRow(y_mm=y, points=9, skipped=0, frames=45, missed=0,
                              median_mm=0.004 * y * y / 1000.0, p95_mm=0.008 * y * y / 1000.0,
@@ -169,7 +169,7 @@ def test_evaluate_accuracy_plot(figures: list[Any], tmp_path: Path) -> None:
 
 
 def test_tune_plot(figures: list[Any], tmp_path: Path) -> None:
-    from marknav.runs.tune import Param, TrialSummary, TuneResult, plot_trials
+    from marknav.runs.evaluation.tune import Param, TrialSummary, TuneResult, plot_trials
 
     rng = np.random.default_rng(3)
     trials = []

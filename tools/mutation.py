@@ -62,21 +62,21 @@ MODULES: dict[str, Module] = {
         "tests/drivers/test_safety.py", "tests/behaviours/test_safety.py",
         "tests/testing/test_fake_robot.py", "tests/drivers/test_driver.py")),
     # the ground truth per waypoint, from the true path alone
-    "truth": Module("marknav/sim/truth.py", (
+    "truth": Module("marknav/runs/metrics/truth.py", (
         "tests/sim/test_truth.py", "tests/sim/test_truth_edges.py")),
     # the evaluation's verdict of one run (not the run itself)
-    "verdict": Module("marknav/runs/evaluate_job.py", (
+    "verdict": Module("marknav/runs/evaluation/job.py", (
         "tests/runs/test_evaluate.py", "tests/runs/test_verdict_edges.py",
         "tests/missions/test_truth_runs.py"),
-        only=("marknav.runs.evaluate_job.xǁSeedResultǁ*",)),
+        only=("marknav.runs.evaluation.job.xǁSeedResultǁ*",)),
     # the evaluation's statistics over the runs (not its text)
-    "statistics": Module("marknav/runs/evaluate_stats.py", (
+    "statistics": Module("marknav/runs/metrics/statistics.py", (
         "tests/runs/test_evaluate.py", "tests/runs/test_verdict_edges.py",
         "tests/missions/test_truth_runs.py"),
-        only=("marknav.runs.evaluate_stats.x_summarise*",
-              "marknav.runs.evaluate_stats.x_wilson_interval*",
-              "marknav.runs.evaluate_stats.x_percentile*",
-              "marknav.runs.evaluate_stats.x__incident*")),
+        only=("marknav.runs.metrics.statistics.x_summarise*",
+              "marknav.runs.metrics.statistics.x_wilson_interval*",
+              "marknav.runs.metrics.statistics.x_percentile*",
+              "marknav.runs.metrics.statistics.x__incident*")),
 }
 
 #: Tests that measure wall-clock margins or spawn processes are never selected: a mutant runs

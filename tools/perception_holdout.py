@@ -4,7 +4,7 @@ From the repository root::
 
     python tools/perception_holdout.py [--quick] [--no-ablation]
 
-See :mod:`marknav.runs.holdout` for the split, the corpora and the scoring.
+See :mod:`marknav.runs.metrics.holdout` for the split, the corpora and the scoring.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import argparse
 import json
 from pathlib import Path
 
-from marknav.runs.holdout import holdout_report
+from marknav.runs.metrics.holdout import holdout_report
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -26,8 +26,8 @@ DISTANCES_MM = (600.0, 1000.0, 1500.0, 2000.0)
 def run(mission_path: str, seed: int, overrides: list[str]) -> dict[str, object]:
     from marknav.missions.overrides import parse_overrides
     from marknav.missions.schema import load_mission
-    from marknav.runs.evaluate_job import SeedResult, _quiet_runs
-    from marknav.runs.run import RunRequest, execute
+    from marknav.runs.evaluation.job import SeedResult, _quiet_runs
+    from marknav.runs.loop.run import RunRequest, execute
     from marknav.sim.camera_model import sim_range_law
     from marknav.vision.estimate import PowerLaw
 
@@ -55,7 +55,7 @@ def run(mission_path: str, seed: int, overrides: list[str]) -> dict[str, object]
 
 
 def summary(rows: list[dict[str, object]]) -> str:
-    from marknav.runs.evaluate import wilson_interval
+    from marknav.runs.evaluation.evaluate import wilson_interval
 
     n = len(rows)
     k = sum(1 for r in rows if r["success"])

@@ -241,7 +241,7 @@ class Perception(PerceptionBase):
     Setup keywords: ``camera`` (a :class:`~marknav.vision.sources.FrameSource`, required),
     ``mission`` (palette, mark radius, range model), ``robot`` (odometry pose), ``clock``;
     optionally ``detector`` (anything with ``detect(image) -> list[Mark]``; default
-    :class:`~marknav.missions.detector.CameraDetector` of the mission's camera: minimum
+    :class:`~marknav.missions.mission_detector.CameraDetector` of the mission's camera: minimum
     radius and horizon prior from ``camera.detect``) and ``range_model`` (default from
     ``mission.camera.range``).
     A frame whose index repeats the previous one is not processed again.
@@ -304,7 +304,7 @@ class Perception(PerceptionBase):
                         prior=prior, min_radius_px=MIN_RADIUS_FRACTION * mission.camera.width)
                     self._range_model = prior
             if self._detector is None:
-                from marknav.missions.detector import mission_detector
+                from marknav.missions.mission_detector import mission_detector
 
                 self._detector = mission_detector(mission, self._camera)
             calibrate = mission.robot.calibrate_wheels

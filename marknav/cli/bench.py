@@ -5,26 +5,28 @@ runs every one and prints ONE JSON object: ``machine`` (CPU, cores, Python, nump
 versions) once at the top level, then a section per benchmark:
 
 - ``vision`` — the detector against plain ``HoughCircles`` on fixed synthetic frames
-  (:func:`marknav.runs.bench_vision.run_vision_bench`), and on the real photographs and composited
-  frames of the source tree's ``tests/data`` (:func:`marknav.runs.bench_real.run_real_bench`),
-  and its worst case, crowded frames (:func:`marknav.runs.bench_crowded.run_crowded_bench`);
+  (:func:`marknav.runs.benchmarks.vision.run_vision_bench`), and on the real photographs and
+  composited
+  frames of the source tree's ``tests/data``
+  (:func:`marknav.runs.benchmarks.photos.run_real_bench`),
+  and its worst case, crowded frames (:func:`marknav.runs.benchmarks.crowded.run_crowded_bench`);
   and ``cost``: in one run on the same frames (synthetic, real 640-px photographs, simulator
   frames) the detector, the least OpenCV detector, plain ``HoughCircles`` and one BGR→HSV, p50
-  and p95 (:func:`marknav.runs.bench_cost.run_cost_bench`);
+  and p95 (:func:`marknav.runs.benchmarks.cost.run_cost_bench`);
 - ``tree`` — µs per behaviour-tree tick, slalom and a 50-waypoint route, mocked perception
-  (:func:`marknav.runs.bench.bench_tree`);
+  (:func:`marknav.runs.benchmarks.suite.bench_tree`);
 - ``loop`` — a simulated mission with rendering and detection: cycle times, overruns, speed-up
-  (:func:`marknav.runs.bench.bench_loop`);
+  (:func:`marknav.runs.benchmarks.suite.bench_loop`);
 - ``safety`` — bump-to-stop latency, safety layer alone and through the real driver
-  (:func:`marknav.runs.bench.bench_safety`);
+  (:func:`marknav.runs.benchmarks.suite.bench_safety`);
 - ``render`` — ms per simulator frame against the 2 ms target
-  (:func:`marknav.runs.bench_render.bench_render`);
+  (:func:`marknav.runs.benchmarks.render.bench_render`);
 - ``mujoco`` (not part of ``all``: the ``mujoco`` extra) — MuJoCo's camera in frames per second
   at 320×240 and 640×480 with and without shadows, against the built-in renderer
-  (:func:`marknav.runs.bench_mujoco.bench_mujoco`);
+  (:func:`marknav.runs.benchmarks.engines.bench_mujoco`);
 - ``dask`` (not part of ``all``: minutes, and the ``cluster`` extra) — an evaluation's
   throughput on a local Dask cluster of one worker, then two, cluster start excluded
-  (:func:`marknav.runs.bench_dask.bench_dask`).
+  (:func:`marknav.runs.benchmarks.cluster.bench_dask`).
 
 ``--quick`` runs each with small sizes (a smoke test: the figures are noisier). ``--profile``
 runs them under :mod:`cProfile` and prints the top costs (own time and cumulative time per
@@ -62,10 +64,10 @@ class Benchmark:
 
 
 def _vision(quick: bool) -> dict[str, Any]:
-    from marknav.runs.bench_cost import run_cost_bench
-    from marknav.runs.bench_crowded import run_crowded_bench
-    from marknav.runs.bench_real import default_corpus, run_real_bench
-    from marknav.runs.bench_vision import run_vision_bench
+    from marknav.runs.benchmarks.cost import run_cost_bench
+    from marknav.runs.benchmarks.crowded import run_crowded_bench
+    from marknav.runs.benchmarks.photos import default_corpus, run_real_bench
+    from marknav.runs.benchmarks.vision import run_vision_bench
 
     result = run_vision_bench(frames=10, repeats=1) if quick else run_vision_bench()
     det, hsv = result["detector_ms_p50"], result["hsv_ms_p50"]
@@ -85,25 +87,25 @@ def _vision(quick: bool) -> dict[str, Any]:
 
 
 def _tree(quick: bool) -> dict[str, Any]:
-    from marknav.runs.bench import bench_tree
+    from marknav.runs.benchmarks.suite import bench_tree
 
     return bench_tree(ticks=200, slalom_ticks=200) if quick else bench_tree()
 
 
 def _loop(quick: bool) -> dict[str, Any]:
-    from marknav.runs.bench import bench_loop
+    from marknav.runs.benchmarks.suite import bench_loop
 
     return bench_loop(max_time_s=5.0) if quick else bench_loop(max_time_s=60.0)
 
 
 def _render(quick: bool) -> dict[str, Any]:
-    from marknav.runs.bench_render import bench_render
+    from marknav.runs.benchmarks.render import bench_render
 
     return bench_render(frames=20, batches=1) if quick else bench_render()
 
 
 def _mujoco(quick: bool) -> dict[str, Any]:
-    from marknav.runs.bench_mujoco import bench_mujoco
+    from marknav.runs.benchmarks.engines import bench_mujoco
     from marknav.sim.mujoco.gl import import_mujoco
 
     import_mujoco()  # no extra or no headless OpenGL: exit 2 naming it
@@ -111,13 +113,13 @@ def _mujoco(quick: bool) -> dict[str, Any]:
 
 
 def _safety(quick: bool) -> dict[str, Any]:
-    from marknav.runs.bench import bench_safety
+    from marknav.runs.benchmarks.suite import bench_safety
 
     return bench_safety(n=200, e2e_n=50) if quick else bench_safety()
 
 
 def _dask(quick: bool) -> dict[str, Any]:
-    from marknav.runs.bench_dask import bench_dask
+    from marknav.runs.benchmarks.cluster import bench_dask
 
     return bench_dask(runs=2, max_time_s=10.0) if quick else bench_dask()
 
@@ -230,7 +232,7 @@ def profile_top(stats: pstats.Stats, n: int) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from marknav.runs.progress import Progress
+    from marknav.runs.views.progress import Progress
 
     names = ([n for n, b in BENCHMARKS.items() if b.in_all] if args.which == "all"
              else [args.which])

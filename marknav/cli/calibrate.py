@@ -60,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
 
         check_output_file(Path(args.plot), option="--plot")
     if args.sim:
-        from marknav.runs.progress import Progress
+        from marknav.runs.views.progress import Progress
         from marknav.sim.calibration import sim_calibration_table
 
         with Progress("calibrate: the simulator's range table", sys.stderr,

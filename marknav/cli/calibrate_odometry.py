@@ -65,8 +65,8 @@ def _ask(prompt: str, option: str) -> float:
 
 
 def run(args: argparse.Namespace) -> int:
-    from marknav.runs import odometry_calibration as oc
-    from marknav.runs.checks import checked_mission
+    from marknav.robot import odometry_calibration as oc
+    from marknav.runs.loop.checks import checked_mission
 
     for value, option in ((args.distance_mm, "--distance-mm"), (args.speed_mm_s, "--speed-mm-s"),
                           (args.measured_mm, "--measured-mm"),
@@ -163,7 +163,7 @@ def _environment(args: argparse.Namespace, mission: Any) -> tuple[Any, Any]:
         if args.world is not None:
             raise InputError("--world needs --robot sim", field="--world")
         from marknav.robot.driver import CreateDriver
-        from marknav.runs.odometry_calibration import DriverEnvironment
+        from marknav.robot.odometry_calibration import DriverEnvironment
 
         driver = CreateDriver(
             args.robot, model=mission.robot.model, baudrate="auto",
@@ -173,7 +173,7 @@ def _environment(args: argparse.Namespace, mission: Any) -> tuple[Any, Any]:
             odometry_scale=mission.robot.odometry_scale)
         driver.connect()
         return DriverEnvironment(driver), None
-    from marknav.runs.sim_environment import SimEnvironment
+    from marknav.runs.loop.sim_environment import SimEnvironment
     from marknav.sim import world as worldmod
 
     world = worldmod.load_world(args.world) if args.world is not None else worldmod.World()

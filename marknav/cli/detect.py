@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 from marknav.core.errors import InputError
 
 if TYPE_CHECKING:
-    from marknav.missions.detector import CameraDetector
+    from marknav.missions.mission_detector import CameraDetector
     from marknav.missions.schema import Mission
     from marknav.vision.detect import Mark
 
@@ -42,7 +42,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 def run(args: argparse.Namespace) -> int:
     import cv2
 
-    from marknav.missions.detector import mission_detector
+    from marknav.missions.mission_detector import mission_detector
     from marknav.vision.annotate import annotate
     from marknav.vision.detect import Detector
     from marknav.vision.palette import DEFAULT_PALETTE, Palette

@@ -14,7 +14,7 @@ from marknav.cli.validate import set_item
 from marknav.core.errors import EXIT_INTERRUPTED, InputError, MissionFailed
 
 if TYPE_CHECKING:
-    from marknav.runs.evaluate import Evaluation
+    from marknav.runs.evaluation.evaluate import Evaluation
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -87,9 +87,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("give the number of runs: --runs N", field="--runs")
     from marknav.missions.examples import mission_path
     from marknav.missions.overrides import parse_overrides
-    from marknav.runs.evaluate import RANDOM, EvaluationStopped, evaluate
-    from marknav.runs.progress import Progress, slow_status
-    from marknav.runs.run import prepare
+    from marknav.runs.evaluation.evaluate import RANDOM, EvaluationStopped, evaluate
+    from marknav.runs.loop.run import prepare
+    from marknav.runs.views.progress import Progress, slow_status
 
     if args.mission != RANDOM:
         args.mission = mission_path(args.mission)
@@ -132,7 +132,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _print(ev: Evaluation, *, as_json: bool) -> None:
-    from marknav.runs.evaluate import format_evaluation
+    from marknav.runs.evaluation.evaluate import format_evaluation
 
     if as_json:
         print(json.dumps(ev.to_dict(), indent=2), flush=True)
@@ -145,7 +145,7 @@ def _accuracy(args: argparse.Namespace) -> int:
         raise InputError("does not apply with --accuracy", field="--runs")
     if args.overrides:
         raise InputError("does not apply with --accuracy", field="--set")
-    from marknav.runs.evaluate import format_accuracy, plot_accuracy, position_accuracy
+    from marknav.runs.evaluation.evaluate import format_accuracy, plot_accuracy, position_accuracy
 
     if args.mission is not None:
         from marknav.missions.examples import mission_path

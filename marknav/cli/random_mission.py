@@ -24,7 +24,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from marknav.runs.random_mission import write_random_mission
+    from marknav.runs.evaluation.random_mission import write_random_mission
 
     if args.seed < 0:
         raise InputError(f"must be ≥ 0, got {args.seed}", field="--seed")

@@ -54,8 +54,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def _screen(state: object, panel: dict[str, object], style: str) -> str:
-    from marknav.runs.display import status_text
-    from marknav.runs.treeview import TreeState, legend
+    from marknav.runs.views.display import status_text
+    from marknav.runs.views.treeview import TreeState, legend
 
     assert isinstance(state, TreeState)
     return "\n".join([legend(style), state.text(style=style),
@@ -63,8 +63,8 @@ def _screen(state: object, panel: dict[str, object], style: str) -> str:
 
 
 def replay(args: argparse.Namespace) -> int:
-    from marknav.runs.display import resolve_style
-    from marknav.runs.runlog import Replay, read_log
+    from marknav.runs.records.runlog import Replay, read_log
+    from marknav.runs.views.display import resolve_style
 
     records = read_log(args.run)
     run = Replay(records)
@@ -93,8 +93,8 @@ def replay(args: argparse.Namespace) -> int:
 
 
 def _print_changes(run: object) -> None:
-    from marknav.runs.runlog import Replay
-    from marknav.runs.treeview import TreeState
+    from marknav.runs.records.runlog import Replay
+    from marknav.runs.views.treeview import TreeState
 
     assert isinstance(run, Replay)
     prev = TreeState.from_structure(run.info["tree"])
@@ -110,8 +110,8 @@ def _print_changes(run: object) -> None:
 def _interactive(run: object, style: str) -> None:
     from rich.console import Console
 
-    from marknav.runs.display import render
-    from marknav.runs.runlog import Replay
+    from marknav.runs.records.runlog import Replay
+    from marknav.runs.views.display import render
 
     assert isinstance(run, Replay)
     console = Console()
@@ -145,7 +145,7 @@ def _interactive(run: object, style: str) -> None:
 
 
 def view(args: argparse.Namespace) -> int:
-    from marknav.runs.viewer import require_display, require_rerun
+    from marknav.runs.views.viewer import require_display, require_rerun
 
     require_rerun("view")  # also sets RERUN_ANALYTICS=0 unless the user chose otherwise
     path = Path(args.run)
@@ -157,8 +157,8 @@ def view(args: argparse.Namespace) -> int:
             return 0
         require_display("view")
         return _open_viewer(path)
-    from marknav.runs.runlog import read_log, resolve_log
-    from marknav.runs.viewer import log_to_recording
+    from marknav.runs.records.runlog import read_log, resolve_log
+    from marknav.runs.views.viewer import log_to_recording
 
     log_path = resolve_log(path)
     records = read_log(log_path)

@@ -16,7 +16,7 @@ PREPARING = "preparing the detector (the first run compiles it: up to a minute)â
 
 if TYPE_CHECKING:
     from marknav.missions.schema import Mission
-    from marknav.runs.run import RunRequest
+    from marknav.runs.loop.run import RunRequest
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -99,10 +99,10 @@ def run(args: argparse.Namespace) -> int:
     from marknav.core.outputs import printable
     from marknav.missions.examples import mission_path
     from marknav.missions.overrides import parse_overrides
-    from marknav.runs.checks import loaded_mission_problems, read_mission
-    from marknav.runs.progress import slow_status
-    from marknav.runs.report import reached
-    from marknav.runs.run import execute, prepare, summary, write_interrupted
+    from marknav.runs.loop.checks import loaded_mission_problems, read_mission
+    from marknav.runs.loop.run import execute, prepare, summary, write_interrupted
+    from marknav.runs.records.report import reached
+    from marknav.runs.views.progress import slow_status
 
     if args.max_time is not None and not args.max_time > 0:
         raise InputError(f"must be positive, got {args.max_time}", field="--max-time")
@@ -111,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
     if args.frames is not None and not args.frames > 0:
         raise InputError(f"must be positive, got {args.frames}", field="--frames")
     if args.viewer or args.record is not None:
-        from marknav.runs.viewer import require_display, require_rerun
+        from marknav.runs.views.viewer import require_display, require_rerun
 
         require_rerun("--viewer" if args.viewer else "--record")
         if args.viewer:
@@ -208,7 +208,7 @@ def _request(args: argparse.Namespace, mission: Mission) -> RunRequest:
     """What to run, and where its files go (the default: a new folder under runs/, created
     now; its event log checked as the user's own paths were)."""
     from marknav.core.outputs import check_output_file
-    from marknav.runs.run import RunRequest, default_run_dir
+    from marknav.runs.loop.run import RunRequest, default_run_dir
 
     report_path: Path = args.report or default_run_dir(mission) / "report.json"
     events_path: Path = args.events or report_path.with_name(report_path.stem + ".events.jsonl")

@@ -43,8 +43,8 @@ def _raise_interrupt(signum: int, frame: FrameType | None) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from marknav.core.clock import MonotonicClock
-    from marknav.sim.create import SimulatedCreate
     from marknav.sim.pty import PtyServer
+    from marknav.sim.simulated_create import SimulatedCreate
 
     for name in ("left_scale", "right_scale"):
         value = getattr(args, name)

@@ -37,9 +37,9 @@ def run(args: argparse.Namespace) -> int:
     from marknav.behaviours.tree import build_mission_tree
     from marknav.missions.examples import mission_path
     from marknav.missions.overrides import parse_overrides
-    from marknav.runs.checks import checked_mission
-    from marknav.runs.display import resolve_style
-    from marknav.runs.treeview import TreeState, dot_tree, legend
+    from marknav.runs.loop.checks import checked_mission
+    from marknav.runs.views.display import resolve_style
+    from marknav.runs.views.treeview import TreeState, dot_tree, legend
 
     if args.dot is not None:
         from marknav.core.outputs import check_output_file

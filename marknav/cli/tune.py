@@ -1,5 +1,6 @@
 """``marknav tune``: search mission parameters for the best success rate, then the shortest
-median mission time, over the same randomised worlds (Optuna; :mod:`marknav.runs.tune`)."""
+median mission time, over the same randomised worlds (Optuna;
+:mod:`marknav.runs.evaluation.tune`)."""
 
 from __future__ import annotations
 
@@ -55,9 +56,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from marknav.missions.examples import mission_path
-    from marknav.runs.progress import Progress, slow_status
-    from marknav.runs.run import prepare
-    from marknav.runs.tune import TrialSummary, best_yaml, parse_param, plot_trials, tune
+    from marknav.runs.evaluation.tune import TrialSummary, best_yaml, parse_param, plot_trials, tune
+    from marknav.runs.loop.run import prepare
+    from marknav.runs.views.progress import Progress, slow_status
 
     params = [parse_param(text) for text in args.param]
     args.mission = mission_path(args.mission)

@@ -1,6 +1,6 @@
 """``marknav validate MISSION...``: check mission files without running them.
 
-Each mission goes through :func:`marknav.runs.checks.check_mission`, the checks ``run`` and
+Each mission goes through :func:`marknav.runs.loop.checks.check_mission`, the checks ``run`` and
 ``tree`` make before they start (the schema, ``--set`` settings, plugins, the tree against the
 palette and the route, building the tree, the simulator world named by ``sim.world``). Valid
 files print ``MISSION: ok (route: red → green → red → blue, 4 waypoints)`` on stdout; problems go
@@ -51,7 +51,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 def run(args: argparse.Namespace) -> int:
     from marknav.missions.examples import mission_path
     from marknav.missions.overrides import parse_overrides
-    from marknav.runs.checks import check_mission
+    from marknav.runs.loop.checks import check_mission
 
     overrides = parse_overrides(args.overrides)
     invalid = 0

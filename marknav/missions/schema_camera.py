@@ -111,7 +111,7 @@ class CameraIntrinsics(BaseModel):
 
 
 class DetectSettings(BaseModel):
-    """How the detector uses the camera model (``marknav.missions.detector``)."""
+    """How the detector uses the camera model (``marknav.missions.mission_detector``)."""
 
     model_config = ConfigDict(extra="forbid")
 

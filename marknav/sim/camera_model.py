@@ -1,6 +1,7 @@
 """The simulator's camera, defined once.
 
-The simulated camera (:class:`marknav.sim.camera.CameraConfig`'s defaults), the mission schema's
+The simulated camera (:class:`marknav.sim.builtin_camera.CameraConfig`'s defaults), the mission
+schema's
 camera defaults, ``marknav calibrate --sim`` and the example missions all refer to these values,
 and ``tests/sim/test_camera_model.py`` checks that they agree: the range law here is what
 ``marknav calibrate --sim`` measures (within 0.5 % over 300–2000 mm), and the example missions for

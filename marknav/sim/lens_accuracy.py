@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from marknav.planning.kinematics import Pose
-from marknav.sim.camera import CameraConfig, Renderer
+from marknav.sim.builtin_camera import CameraConfig, Renderer
 from marknav.sim.lens import Lens
 from marknav.sim.world import Background, Conditions, MarkSpec, World
 from marknav.vision.detect import Detector

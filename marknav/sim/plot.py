@@ -90,7 +90,7 @@ def plot_run(mission: Any, world: Any, truth: Any, plans: Sequence[Any], report:
              path: str | Path, *, waypoint_marks: Sequence[int | None] | None = None) -> None:
     """Write the picture of a finished simulator run to ``path`` (PNG, or any format matplotlib
     knows by the suffix)."""
-    from marknav.sim.camera import mark_bgr
+    from marknav.sim.builtin_camera import mark_bgr
 
     palette = {c.name: c for c in mission.palette()}
     route = list(mission.route)
@@ -125,7 +125,7 @@ def plot_log(records: Sequence[dict[str, Any]], path: str | Path) -> None:
 
 
 def plot_data_from_log(records: Sequence[dict[str, Any]]) -> PlotData:
-    """What the picture shows, from a run log's records (see :mod:`marknav.runs.runlog`)."""
+    """What the picture shows, from a run log's records (see :mod:`marknav.runs.records.runlog`)."""
     tree = next((r for r in records if r["kind"] == "tree"), None)
     if tree is None:
         raise InputError("the run log has no tree record: nothing to draw")

@@ -26,7 +26,8 @@ if TYPE_CHECKING:
 
 
 class CameraConfig(Protocol):
-    """What projecting needs of a pinhole camera (:class:`marknav.sim.camera.CameraConfig` is
+    """What projecting needs of a pinhole camera (:class:`marknav.sim.builtin_camera.CameraConfig`
+    is
     one): image size (px), focal length and principal point (px), the camera's offset ahead of
     the robot's centre and its near plane (mm)."""
 

@@ -31,7 +31,7 @@ import serial
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException
 
 from marknav.core.clock import MonotonicClock
-from marknav.sim.create import SimulatedCreate
+from marknav.sim.simulated_create import SimulatedCreate
 
 __all__ = ["Serial", "lookup", "register", "register_scheme", "unregister"]
 

@@ -1,4 +1,4 @@
-"""Serve a :class:`~marknav.sim.create.SimulatedCreate` on an OS pseudo-terminal.
+"""Serve a :class:`~marknav.sim.simulated_create.SimulatedCreate` on an OS pseudo-terminal.
 
 Any program that opens the slave device (``/dev/pts/N``) talks to the simulated robot exactly as
 to a USB-serial cable: our driver, pycreate2, a terminal program. The pty is put in raw mode
@@ -28,7 +28,7 @@ import threading
 import tty
 from types import TracebackType
 
-from marknav.sim.create import SimulatedCreate
+from marknav.sim.simulated_create import SimulatedCreate
 
 __all__ = ["PtyServer"]
 

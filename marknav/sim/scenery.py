@@ -1,6 +1,7 @@
 """Harder rooms for the simulated camera: what real rooms put around the marks.
 
-The renderer's background panorama (:mod:`marknav.sim.camera`) is a plain, low-saturation room.
+The renderer's background panorama (:mod:`marknav.sim.builtin_camera`) is a plain, low-saturation
+room.
 The world's :class:`~marknav.sim.world.Conditions` can ask for more (all drawn deterministically
 from the background's seed):
 

@@ -17,8 +17,7 @@ world x east, y north, heading θ counter-clockwise from +x, millimetres; degree
   segments, boxes rectangles. :func:`contacts` gives each touching obstacle with the contact angle
   relative to the heading and the bumper bits it presses (left half of the front, right half, both
   when nearly straight ahead; no bit behind the bumper's arc).
-- **Run-report measures from ground truth** live in :mod:`marknav.sim.passes` and are
-  re-exported here: :func:`min_clearance_mm`, :func:`pass_crossings`, :func:`passed_on`.
+- **Run-report measures from ground truth** live in :mod:`marknav.runs.metrics` (passes, truth).
 
 A mark's ``yaw_deg`` turns the disc's face about the vertical: 0 means its normal points along −y
 (toward a robot at the origin facing +y); positive turns it counter-clockwise seen from above. Yaw
@@ -42,7 +41,6 @@ from marknav.planning.kinematics import Pose, wrap_angle
 from marknav.sim.lens import Lens, random_lens
 from marknav.sim.mujoco.scene import MARK_YAW_MAX_DEG as MUJOCO_MARK_YAW_MAX_DEG
 from marknav.sim.mujoco.scene import MujocoScene, random_scene
-from marknav.sim.passes import Crossing, min_clearance_mm, pass_crossings, passed_on
 from marknav.sim.scenery import random_room
 from marknav.vision.palette import ColourRange
 
@@ -59,7 +57,6 @@ __all__ = [
     "ClutterItem",
     "Conditions",
     "Contact",
-    "Crossing",
     "FaultEvent",
     "FrictionPatch",
     "MarkSpec",
@@ -74,9 +71,6 @@ __all__ = [
     "contacts",
     "generate_world",
     "load_world",
-    "min_clearance_mm",
-    "pass_crossings",
-    "passed_on",
     "push_out",
     "random_conditions",
     "random_patches",

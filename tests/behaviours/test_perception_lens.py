@@ -9,7 +9,7 @@ import pytest
 from marknav.behaviours import keys
 from marknav.behaviours.perception import Perception
 from marknav.planning.kinematics import Pose
-from marknav.sim.camera import CameraConfig, Renderer
+from marknav.sim.builtin_camera import CameraConfig, Renderer
 from marknav.sim.lens import Lens
 from marknav.sim.world import Background, Conditions, MarkSpec, World
 from marknav.testing import FakeRobot

@@ -9,7 +9,7 @@ from py_trees.common import Status
 
 from marknav.behaviours import keys
 from marknav.behaviours.route import build_route_tree
-from marknav.sim.camera import SimCamera
+from marknav.sim.builtin_camera import SimCamera
 from marknav.sim.world import MarkSpec, World
 from marknav.testing import tick_until
 

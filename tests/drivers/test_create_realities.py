@@ -11,8 +11,8 @@ from marknav.robot import oi
 from marknav.robot.driver import AUTO_BAUDRATES, KEEPALIVE_PERIOD_S, CreateDriver
 from marknav.robot.packets import Model, OIMode
 from marknav.robot.transport import open_port
-from marknav.sim.create import PASSIVE_SLEEP_S, SimulatedCreate
 from marknav.sim.protocol_createsim import register, unregister
+from marknav.sim.simulated_create import PASSIVE_SLEEP_S, SimulatedCreate
 
 
 @pytest.fixture

@@ -23,7 +23,7 @@ from marknav.robot.driver import CreateDriver, default_stream_ids
 from marknav.robot.oi import Model, OIMode, Opcode
 from marknav.robot.transport import SerialPort, open_port
 from marknav.sim import protocol_createsim
-from marknav.sim.create import SimulatedCreate
+from marknav.sim.simulated_create import SimulatedCreate
 
 TICK = oi.STREAM_PERIOD_S
 

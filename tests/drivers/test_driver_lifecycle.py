@@ -21,7 +21,7 @@ from marknav.robot.driver import CreateDriver
 from marknav.robot.oi import OIMode, Opcode
 from marknav.robot.transport import SerialPort, open_port
 from marknav.sim import protocol_createsim
-from marknav.sim.create import SimulatedCreate
+from marknav.sim.simulated_create import SimulatedCreate
 
 RUNTIME = "a CreateDriver connects once; make a new one to reconnect"
 

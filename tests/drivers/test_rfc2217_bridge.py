@@ -30,8 +30,8 @@ from marknav.robot.driver import CreateDriver
 from marknav.robot.oi import Model, OIMode, Opcode
 from marknav.robot.transport import SerialPort, open_port
 from marknav.sim import protocol_createsim
-from marknav.sim.create import SimulatedCreate
 from marknav.sim.pty import PtyServer
+from marknav.sim.simulated_create import SimulatedCreate
 
 #: pyserial's rfc2217 client refuses ``write_timeout`` (NotImplementedError), which
 #: ``transport.open_port`` passes by default; see test_open_port_default_on_rfc2217.

@@ -13,7 +13,7 @@ import pytest
 
 from marknav.core.clock import ManualClock
 from marknav.robot.safety import SafetyFlags, SafetyLayer, SafetyState
-from marknav.runs.bench_safety import measure_bump_to_stop
+from marknav.runs.benchmarks.safety import measure_bump_to_stop
 
 CLEAR = SafetyFlags()
 BUMP = dataclasses.replace(CLEAR, bump_left=True)

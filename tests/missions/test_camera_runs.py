@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from marknav.cli.main import main
-from marknav.runs.run import RunRequest, execute, load
+from marknav.runs.loop.run import RunRequest, execute, load
 from marknav.sim.camera_model import SIM_RANGE_A, SIM_RANGE_B
 from marknav.vision.estimate import PowerLaw
 

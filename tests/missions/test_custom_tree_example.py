@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from marknav.runs.checks import checked_mission
-from marknav.runs.run import RunRequest, execute, pass_times
-from marknav.runs.sim_environment import SimEnvironment
+from marknav.runs.loop.checks import checked_mission
+from marknav.runs.loop.run import RunRequest, execute, pass_times
+from marknav.runs.loop.sim_environment import SimEnvironment
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "missions" / "pause-at-each-mark.yaml"
 

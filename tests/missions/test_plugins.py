@@ -17,8 +17,8 @@ import pytest
 from marknav.cli.main import main
 from marknav.missions.schema import mission_json_schema
 from marknav.robot.oi import Opcode
-from marknav.runs.checks import checked_mission
-from marknav.runs.run import RunRequest, execute
+from marknav.runs.loop.checks import checked_mission
+from marknav.runs.loop.run import RunRequest, execute
 
 PKG = Path(__file__).resolve().parents[1] / "data" / "plugin_pkg"
 MISSION = PKG / "missions" / "wiggle-at-each-mark.yaml"

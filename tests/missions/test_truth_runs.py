@@ -12,9 +12,9 @@ import pytest
 
 from marknav.cli.main import main
 from marknav.missions.schema import load_mission
-from marknav.runs.evaluate import SeedResult, WaypointTruth, summarise
-from marknav.runs.report import RunReport, WaypointResult
-from marknav.sim.truth import course_truth
+from marknav.runs.evaluation.evaluate import SeedResult, WaypointTruth, summarise
+from marknav.runs.metrics.truth import course_truth
+from marknav.runs.records.report import RunReport, WaypointResult
 from marknav.sim.world import load_world
 
 ROOT = Path(__file__).resolve().parents[2]

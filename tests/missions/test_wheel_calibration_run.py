@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from marknav.runs.run import RunRequest, execute, load
+from marknav.runs.loop.run import RunRequest, execute, load
 from marknav.sim.lens import Lens
 
 SLALOM = Path(__file__).resolve().parents[2] / "missions" / "slalom.yaml"

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from marknav.runs.bench import bench_loop, bench_safety, bench_tree
+from marknav.runs.benchmarks.suite import bench_loop, bench_safety, bench_tree
 from marknav.testing import make_mission
 
 
@@ -66,7 +66,7 @@ def test_loop_bench_runs_the_simulator_to_the_time_cap() -> None:
 
 
 def test_loop_bench_times_its_parts_only_while_it_runs() -> None:
-    from marknav.sim.camera import Renderer
+    from marknav.sim.builtin_camera import Renderer
 
     before = Renderer.render
     bench_loop(mission=make_mission(name="tiny", route=["red"]), max_time_s=0.1, seed=3)
@@ -152,5 +152,5 @@ def test_bench_profile_prints_the_top_costs(capsys: pytest.CaptureFixture[str]) 
     own = err.index("top 4 by own time:")
     cum = err.index("top 4 by cumulative time:")
     assert cum - own == 6  # header + 4 rows
-    assert any("marknav/runs/bench.py" in line for line in err[cum:])
+    assert any("marknav/runs/benchmarks/suite.py" in line for line in err[cum:])
     assert main(["bench", "safety", "--quick", "--profile", "0"]) == 2

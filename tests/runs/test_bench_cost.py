@@ -9,7 +9,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from marknav.runs.bench_cost import least_opencv_detector, run_cost_bench, time_functions
+from marknav.runs.benchmarks.cost import least_opencv_detector, run_cost_bench, time_functions
 from marknav.vision.palette import DEFAULT_PALETTE
 
 REAL = Path(__file__).resolve().parents[1] / "data" / "real"

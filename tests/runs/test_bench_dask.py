@@ -24,7 +24,7 @@ TINY = {
 
 @pytest.mark.slow
 def test_one_and_two_workers_evaluate_the_same_seeds(tmp_path: Path) -> None:
-    from marknav.runs.bench_dask import bench_dask
+    from marknav.runs.benchmarks.cluster import bench_dask
 
     mission = tmp_path / "tiny.yaml"
     mission.write_text(yaml.safe_dump(TINY), encoding="utf-8")
@@ -43,7 +43,7 @@ def test_one_and_two_workers_evaluate_the_same_seeds(tmp_path: Path) -> None:
 
 
 def test_bad_sizes_are_refused() -> None:
-    from marknav.runs.bench_dask import bench_dask
+    from marknav.runs.benchmarks.cluster import bench_dask
 
     with pytest.raises(ValueError):
         bench_dask(runs=0)

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from marknav.cli.main import main
-from marknav.runs.odometry_calibration import effective_wheel_base, odometry_scale
+from marknav.robot.odometry_calibration import effective_wheel_base, odometry_scale
 
 ROOT = Path(__file__).resolve().parents[2]
 SLALOM = ROOT / "missions" / "slalom.yaml"

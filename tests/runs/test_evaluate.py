@@ -12,8 +12,8 @@ import pytest
 import yaml
 
 from marknav.cli.main import main
-from marknav.runs import evaluate as ev_mod
-from marknav.runs.evaluate import (
+from marknav.runs.evaluation import evaluate as ev_mod
+from marknav.runs.evaluation.evaluate import (
     SeedResult,
     format_evaluation,
     percentile,
@@ -21,7 +21,7 @@ from marknav.runs.evaluate import (
     summarise,
     wilson_interval,
 )
-from marknav.runs.report import RunReport, WaypointResult
+from marknav.runs.records.report import RunReport, WaypointResult
 from marknav.testing import BASE_MISSION
 
 Z2 = 1.959963984540054**2
@@ -292,7 +292,7 @@ def test_progress_bar_on_a_terminal(mission_file: Path, scripted_runs: list[int]
 
 def test_a_crashing_run_is_an_error_not_the_end(mission_file: Path,
                                                 monkeypatch: pytest.MonkeyPatch) -> None:
-    import marknav.runs.run as run_mod
+    import marknav.runs.loop.run as run_mod
 
     def boom(req: object) -> object:
         raise ZeroDivisionError("division by zero")

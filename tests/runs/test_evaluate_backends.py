@@ -18,7 +18,7 @@ import pytest
 import yaml
 
 from marknav.cli.main import main
-from marknav.runs.evaluate import SeedResult, evaluate
+from marknav.runs.evaluation.evaluate import SeedResult, evaluate
 from marknav.testing import BASE_MISSION
 
 distributed = pytest.importorskip("distributed")

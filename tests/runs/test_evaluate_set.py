@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from marknav.cli.main import main
-from marknav.runs.evaluate import replay_command
+from marknav.runs.evaluation.evaluate import replay_command
 
 SLALOM = Path(__file__).resolve().parents[2] / "missions" / "slalom.yaml"
 

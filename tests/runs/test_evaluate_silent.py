@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import json
 
-from marknav.runs.evaluate import SeedResult, format_evaluation, summarise
-from marknav.runs.report import RunReport, WaypointResult
+from marknav.runs.evaluation.evaluate import SeedResult, format_evaluation, summarise
+from marknav.runs.records.report import RunReport, WaypointResult
 
 
 def run(outcomes: tuple[str, str], truths: tuple[str, str], *, outcome: str = "failed",

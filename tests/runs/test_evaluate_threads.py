@@ -12,9 +12,9 @@ import py_trees
 import pytest
 import yaml
 
-from marknav.runs import run as runmod
-from marknav.runs.evaluate import run_seed
-from marknav.runs.evaluate_backends import one_opencv_thread, run_jobs
+from marknav.runs.evaluation.backends import one_opencv_thread, run_jobs
+from marknav.runs.evaluation.evaluate import run_seed
+from marknav.runs.loop import run as runmod
 from marknav.testing import BASE_MISSION
 
 TINY = {

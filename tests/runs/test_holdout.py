@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from marknav.runs.holdout import Frame, Truth, half, score
+from marknav.runs.metrics.holdout import Frame, Truth, half, score
 from marknav.vision.detect import Detector
 from marknav.vision.palette import DEFAULT_PALETTE
 
@@ -37,7 +37,7 @@ def test_score_counts_found_marks_false_marks_and_the_range_error() -> None:
 def test_the_mujoco_corpus_has_truth_where_the_marks_are_drawn() -> None:
     """Frames MuJoCo renders, with truths from the shared pinhole projection: each truth's
     centre lies on paint of its colour (hue within the palette's range, saturated)."""
-    from marknav.runs.holdout import _mujoco
+    from marknav.runs.metrics.holdout import _mujoco
     from marknav.sim.mujoco import gl
 
     gl.backend()  # the headless renderer, chosen before anything imports mujoco

@@ -12,9 +12,9 @@ from typing import Any
 import pytest
 
 from marknav.cli.main import main
-from marknav.runs import evaluate as evaluate_module
-from marknav.runs.evaluate import EvaluationStopped, SeedResult, evaluate
-from marknav.runs.progress import Progress, slow_status
+from marknav.runs.evaluation import evaluate as evaluate_module
+from marknav.runs.evaluation.evaluate import EvaluationStopped, SeedResult, evaluate
+from marknav.runs.views.progress import Progress, slow_status
 
 SLALOM = Path(__file__).resolve().parents[2] / "missions" / "slalom.yaml"
 
@@ -106,7 +106,7 @@ def test_an_interrupted_evaluation_keeps_the_finished_runs(
 def test_evaluate_json_after_ctrl_c_prints_the_finished_runs_and_exits_130(
         monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
     monkeypatch.setattr(evaluate_module, "run_jobs", _interrupted_after(3))
-    monkeypatch.setattr("marknav.runs.run.prepare", lambda simulator: None)
+    monkeypatch.setattr("marknav.runs.loop.run.prepare", lambda simulator: None)
     assert main(["evaluate", str(SLALOM), "--runs", "8", "--json"]) == 130
     captured = capsys.readouterr()
     data = json.loads(captured.out)

@@ -12,9 +12,9 @@ import pytest
 
 from marknav.cli.main import main
 from marknav.planning.kinematics import Pose
-from marknav.runs.random_mission import PALETTE, random_mission
+from marknav.runs.evaluation.random_mission import PALETTE, random_mission
 from marknav.sim import scenery
-from marknav.sim.camera import CameraConfig, Renderer
+from marknav.sim.builtin_camera import CameraConfig, Renderer
 from marknav.sim.world import (
     LIGHTING_GAIN_RANGE,
     Background,

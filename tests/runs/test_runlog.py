@@ -22,10 +22,10 @@ import pytest
 
 from marknav.cli.main import main
 from marknav.missions.schema import load_mission
-from marknav.runs import runlog
-from marknav.runs.run import RunRequest, execute
-from marknav.runs.runlog import Replay, read_log
-from marknav.runs.treeview import TreeState, _preorder
+from marknav.runs.loop.run import RunRequest, execute
+from marknav.runs.records import runlog
+from marknav.runs.records.runlog import Replay, read_log
+from marknav.runs.views.treeview import TreeState, _preorder
 
 ROOT = Path(__file__).resolve().parents[2]
 SLALOM = ROOT / "missions" / "slalom.yaml"
@@ -182,7 +182,7 @@ def test_a_recording_keeps_five_jpeg_frames_a_second_by_default(tmp_path: Path) 
     pytest.importorskip("rerun")
     import py_trees
 
-    from marknav.runs.viewer import RECORD_FRAMES_HZ, RerunSink
+    from marknav.runs.views.viewer import RECORD_FRAMES_HZ, RerunSink
 
     mission = load_mission(str(SLALOM))
     out = tmp_path / "five.rrd"
@@ -232,8 +232,8 @@ def test_a_robot_run_logs_run_relative_times_and_camera_frames(tmp_path: Path) -
     """The real-robot path (driver over a pseudo-terminal, a still image as the camera, the
     monotonic clock): safety events in run time, not the raw monotonic clock; frames saved."""
     from marknav.core.clock import MonotonicClock
-    from marknav.sim.create import SimulatedCreate
     from marknav.sim.pty import PtyServer
+    from marknav.sim.simulated_create import SimulatedCreate
 
     image = ROOT / "tests" / "data" / "smarties.png"
     with PtyServer(SimulatedCreate(clock=MonotonicClock())) as server:

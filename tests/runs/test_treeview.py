@@ -7,8 +7,8 @@ import io
 import py_trees
 from py_trees.common import Status
 
-from marknav.runs.display import PlainView, make_view, status_text
-from marknav.runs.treeview import (
+from marknav.runs.views.display import PlainView, make_view, status_text
+from marknav.runs.views.treeview import (
     FAILURE,
     INVALID,
     KIND_SYMBOLS,

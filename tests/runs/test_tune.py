@@ -13,7 +13,7 @@ import pytest
 import yaml
 
 from marknav.cli.main import main
-from marknav.runs.tune import parse_param
+from marknav.runs.evaluation.tune import parse_param
 from marknav.testing import BASE_MISSION
 
 optuna = pytest.importorskip("optuna")

@@ -1,5 +1,6 @@
 """The evaluation's verdict and statistics at edges mutation testing found unasserted
-(docs/mutation.md, runs/evaluate.py): a run's JSON record field by field, which waypoints a run
+(docs/mutation.md, runs/evaluation/evaluate.py): a run's JSON record field by field, which
+waypoints a run
 reached, incidents at their boundaries, the summary's defaults and totals, the statistics'
 argument checks. Synthetic results only (no simulation)."""
 
@@ -7,7 +8,7 @@ from __future__ import annotations
 
 import pytest
 
-from marknav.runs.evaluate import (
+from marknav.runs.evaluation.evaluate import (
     CLEARANCE_TOLERANCE_MM,
     SeedResult,
     WaypointTruth,
@@ -15,7 +16,7 @@ from marknav.runs.evaluate import (
     summarise,
     wilson_interval,
 )
-from marknav.runs.report import RunReport, WaypointResult
+from marknav.runs.records.report import RunReport, WaypointResult
 
 
 def wp(colour: str, outcome: str, truth: str | None, clearance: float | None = 300.0,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from marknav.sim.accuracy import accuracy_table
+from marknav.runs.metrics.position_accuracy import accuracy_table
 from marknav.sim.calibration import sim_calibration_fit
 from marknav.sim.world import Conditions
 from marknav.vision.estimate import PowerLaw

@@ -11,8 +11,15 @@ import pytest
 
 from marknav.core.clock import ManualClock
 from marknav.planning.kinematics import Pose
-from marknav.runs.bench_render import bench_render, example_poses, example_renderer
-from marknav.sim.camera import CameraConfig, Renderer, SimCamera, mark_bgr, project_marks, render
+from marknav.runs.benchmarks.render import bench_render, example_poses, example_renderer
+from marknav.sim.builtin_camera import (
+    CameraConfig,
+    Renderer,
+    SimCamera,
+    mark_bgr,
+    project_marks,
+    render,
+)
 from marknav.sim.world import Background, Conditions, MarkSpec, World, load_world
 from marknav.vision.detect import Detector
 from marknav.vision.palette import ColourRange

@@ -7,8 +7,8 @@ import json
 import pytest
 
 from marknav.cli.main import main
+from marknav.sim.builtin_camera import CameraConfig
 from marknav.sim.calibration import TABLE1_DISTANCES_MM, sim_calibration_fit, sim_calibration_table
-from marknav.sim.camera import CameraConfig
 from marknav.sim.world import Conditions
 from marknav.vision.calibrate import fit_power_law
 

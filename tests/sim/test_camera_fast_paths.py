@@ -15,8 +15,8 @@ import numpy.typing as npt
 import pytest
 
 from marknav.planning.kinematics import Pose
-from marknav.runs.bench_render import example_poses, example_renderer
-from marknav.sim.camera import CameraConfig, Renderer
+from marknav.runs.benchmarks.render import example_poses, example_renderer
+from marknav.sim.builtin_camera import CameraConfig, Renderer
 from marknav.sim.projection import MarkGeometry, clip_near, inset, rim_projection
 from marknav.sim.world import Background, Conditions, MarkSpec, World
 from marknav.vision.palette import ColourRange

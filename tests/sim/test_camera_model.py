@@ -11,8 +11,8 @@ from marknav.core.clock import ManualClock
 from marknav.missions.camera import mission_range_model
 from marknav.missions.schema import Camera, PinholeRange, PowerRange, load_mission
 from marknav.planning.kinematics import Pose
+from marknav.sim.builtin_camera import CameraConfig, SimCamera
 from marknav.sim.calibration import sim_calibration_fit
-from marknav.sim.camera import CameraConfig, SimCamera
 from marknav.sim.camera_model import (
     SIM_FOCAL_PX,
     SIM_HEIGHT,

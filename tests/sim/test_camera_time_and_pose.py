@@ -9,7 +9,7 @@ import pytest
 
 from marknav.core.clock import ManualClock
 from marknav.planning.kinematics import Pose
-from marknav.sim.camera import SimCamera
+from marknav.sim.builtin_camera import SimCamera
 from marknav.sim.world import Conditions
 from tests.sim.test_camera import PALETTE, START, F, area_radius_and_centroid, coverage, one_mark
 

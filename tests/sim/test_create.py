@@ -19,7 +19,7 @@ from marknav.robot.packets import (
     packet_size,
     packet_table,
 )
-from marknav.sim.create import LedState, SimulatedCreate
+from marknav.sim.simulated_create import LedState, SimulatedCreate
 
 C1, C2 = Model.CREATE1, Model.CREATE2
 TICK = oi.STREAM_PERIOD_S

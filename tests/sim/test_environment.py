@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from marknav.runs.sim_environment import SimEnvironment, waypoint_truth
+from marknav.runs.loop.sim_environment import SimEnvironment, waypoint_truth
 from marknav.sim.world import CREATE_RADIUS_MM, MarkSpec, World
 from marknav.vision.palette import DEFAULT_PALETTE
 

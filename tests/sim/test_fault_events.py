@@ -13,7 +13,7 @@ import yaml
 
 from marknav.cli.main import main
 from marknav.robot.oi import Opcode
-from marknav.runs import run as runmod
+from marknav.runs.loop import run as runmod
 
 ROOT = Path(__file__).resolve().parents[2]
 SLALOM = ROOT / "missions" / "slalom.yaml"

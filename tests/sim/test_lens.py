@@ -10,7 +10,7 @@ import pytest
 from pydantic import ValidationError
 
 from marknav.planning.kinematics import Pose
-from marknav.sim.camera import CameraConfig, Renderer
+from marknav.sim.builtin_camera import CameraConfig, Renderer
 from marknav.sim.lens import K1_RANGE, Lens, random_lens
 from marknav.sim.lens_accuracy import _distort, lens_range_errors
 from marknav.sim.world import Background, Conditions, MarkSpec, World, generate_world

@@ -23,9 +23,9 @@ from marknav.robot import oi  # noqa: E402
 from marknav.robot.odometry import MM_PER_COUNT  # noqa: E402
 from marknav.robot.oi import Model, OIMode  # noqa: E402
 from marknav.robot.packets import decode_packet, packet_size  # noqa: E402
-from marknav.sim.camera import CameraConfig  # noqa: E402
-from marknav.sim.create import SimulatedCreate  # noqa: E402
+from marknav.sim.builtin_camera import CameraConfig  # noqa: E402
 from marknav.sim.mujoco.body import MujocoBody  # noqa: E402
+from marknav.sim.simulated_create import SimulatedCreate  # noqa: E402
 from marknav.sim.world import Conditions, MarkSpec, World, generate_world  # noqa: E402
 from marknav.vision.palette import DEFAULT_PALETTE  # noqa: E402
 
@@ -88,7 +88,7 @@ def test_encoders_count_the_wheel_joints_rotation() -> None:
 
 
 def test_the_bumper_fires_on_contact_and_the_safety_layer_stops() -> None:
-    from marknav.runs.sim_environment import SimEnvironment
+    from marknav.runs.loop.sim_environment import SimEnvironment
 
     mark = (0.0, 1000.0)
     world = quiet_world(MarkSpec(colour="red", x_mm=mark[0], y_mm=mark[1], radius_mm=100.0))
@@ -195,7 +195,7 @@ def test_marknav_run_engine_mujoco_closes_the_loop(tmp_path: Path) -> None:
 
 
 def test_bench_mujoco_measures_both_sizes_with_and_without_shadows_against_the_floor() -> None:
-    from marknav.runs.bench_mujoco import SIZES, bench_mujoco
+    from marknav.runs.benchmarks.engines import SIZES, bench_mujoco
 
     result = bench_mujoco(frames=2, batches=1)
     assert result["floor"] == "builtin renderer"

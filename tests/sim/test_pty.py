@@ -20,8 +20,8 @@ from marknav.robot import oi
 from marknav.robot.driver import CreateDriver
 from marknav.robot.oi import Model, OIMode
 from marknav.robot.packets import SensorState, decode_packet
-from marknav.sim.create import LedState, SimulatedCreate
 from marknav.sim.pty import PtyServer
+from marknav.sim.simulated_create import LedState, SimulatedCreate
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "openpty"), reason="needs POSIX ptys")
 

@@ -14,9 +14,9 @@ import pytest
 from marknav.core.clock import ManualClock
 from marknav.planning.kinematics import Pose
 from marknav.robot import oi
-from marknav.runs.sim_environment import GroundTruth
-from marknav.sim.camera import SimCamera, mark_bgr, mark_inks
-from marknav.sim.create import SimulatedCreate
+from marknav.runs.loop.sim_environment import GroundTruth
+from marknav.sim.builtin_camera import SimCamera, mark_bgr, mark_inks
+from marknav.sim.simulated_create import SimulatedCreate
 from marknav.sim.world import (
     Conditions,
     FaultEvent,

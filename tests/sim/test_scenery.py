@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from marknav.planning.kinematics import Pose
-from marknav.sim.camera import CameraConfig, Renderer
+from marknav.sim.builtin_camera import CameraConfig, Renderer
 from marknav.sim.scenery import PALETTE_MARGIN, PHOTOS, near_hues, off_palette_hue, random_room
 from marknav.sim.world import (
     Conditions,

@@ -32,7 +32,7 @@ from marknav.robot.packets import (
     packet_table,
     state_updates,
 )
-from marknav.sim.create import SimulatedCreate, _wrap16
+from marknav.sim.simulated_create import SimulatedCreate, _wrap16
 
 # --- the implementations the fast paths replaced ------------------------------------------
 

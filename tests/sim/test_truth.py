@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from marknav.core.errors import InputErrors
-from marknav.sim.truth import course_truth, resample_path, truth_path
+from marknav.runs.metrics.truth import course_truth, resample_path, truth_path
 from marknav.sim.world import MarkSpec, World, check_course, load_world
 
 

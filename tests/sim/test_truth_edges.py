@@ -1,4 +1,4 @@
-"""The ground truth (marknav/sim/truth.py) at edges mutation testing found unasserted
+"""The ground truth (marknav/runs/metrics/truth.py) at edges mutation testing found unasserted
 (docs/mutation.md): argument checks, an empty path, the resampling's and the report path's
 bounds. Public functions only, on synthetic paths, as tests/sim/test_truth.py."""
 
@@ -9,7 +9,7 @@ import itertools
 import numpy as np
 import pytest
 
-from marknav.sim.truth import course_truth, resample_path, truth_path
+from marknav.runs.metrics.truth import course_truth, resample_path, truth_path
 from marknav.sim.world import MarkSpec, World
 
 

@@ -11,8 +11,9 @@ import pytest
 
 from marknav.core.errors import InputError
 from marknav.planning.kinematics import Pose
+from marknav.runs.metrics.passes import min_clearance_mm, pass_crossings, passed_on
 from marknav.sim import world as w
-from marknav.sim.camera import CameraConfig, project_marks
+from marknav.sim.builtin_camera import CameraConfig, project_marks
 from marknav.sim.world import (
     Box,
     Conditions,
@@ -24,9 +25,6 @@ from marknav.sim.world import (
     contacts,
     generate_world,
     load_world,
-    min_clearance_mm,
-    pass_crossings,
-    passed_on,
     push_out,
 )
 from marknav.vision.palette import DEFAULT_PALETTE, ColourRange

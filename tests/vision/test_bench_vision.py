@@ -10,7 +10,9 @@ import numpy as np
 import pytest
 
 from marknav.cli.main import main
-from marknav.runs.bench_vision import BENCH_SPEC, bench_frames, match_marks, run_vision_bench
+from marknav.runs.benchmarks.vision import run_vision_bench
+from marknav.runs.metrics.matching import match_marks
+from marknav.sim.synthetic.scene import BENCH_SPEC, bench_frames
 from marknav.vision.detect import Detector, Mark
 
 KEYS = {"frames", "repeats", "width", "height", "detector_ms_p50", "detector_ms_p99",

@@ -86,7 +86,7 @@ def test_mission_range_law_gives_each_mark_its_distance(
     # and 0.3 m to the left: detect --mission slalom.yaml reports where it is.
     from marknav.missions.schema import load_mission
     from marknav.planning.kinematics import Pose
-    from marknav.sim.camera import CameraConfig, render
+    from marknav.sim.builtin_camera import CameraConfig, render
     from marknav.sim.world import Background, Conditions, MarkSpec, World
 
     mission = load_mission(SLALOM)

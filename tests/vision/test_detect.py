@@ -438,7 +438,7 @@ def test_sim_frame_mark_cut_by_a_pole_below_bars_of_its_colour() -> None:
     reach. The closing joined both halves and the bars into one shape that is no ellipse: the
     robot's detector lost the mark for 23 frames and the search gave up. Pieces that are bars
     are left out of the join."""
-    from marknav.missions.detector import CameraDetector
+    from marknav.missions.mission_detector import CameraDetector
     from marknav.missions.schema import load_mission
 
     mission = load_mission(Path(__file__).resolve().parents[2] / "missions" / "slalom.yaml")

@@ -14,8 +14,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from marknav.runs.bench_crowded import crowded_frames, run_crowded_bench
-from marknav.runs.bench_vision import SceneSpec, render_scene
+from marknav.runs.benchmarks.crowded import crowded_frames, run_crowded_bench
+from marknav.sim.synthetic.scene import SceneSpec, render_scene
 from marknav.vision.detect import Detector, DetectorConfig, Mark, suppress
 from marknav.vision.palette import DEFAULT_PALETTE
 

@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 import pytest
 
-from marknav.runs.bench_vision import SceneSpec, render_scene
+from marknav.sim.synthetic.scene import SceneSpec, render_scene
 from marknav.vision.detect import Detector, DetectorConfig, Mark, gate
 from marknav.vision.detect.gate import SearchBuffers, search_products
 from marknav.vision.palette import DEFAULT_PALETTE

@@ -1,4 +1,4 @@
-"""The detector on rendered scenes (``marknav.runs.bench_vision.render_scene``): recall, false
+"""The detector on rendered scenes (``marknav.sim.synthetic.scene.render_scene``): recall, false
 positives and accuracy over light, casts, blur, noise, clutter, occlusion, cut and touching marks.
 
 The scenes are anti-aliased (painted at 4× and box-reduced), so the painted centre and semi-axes
@@ -12,7 +12,8 @@ import math
 import numpy as np
 import pytest
 
-from marknav.runs.bench_vision import SceneSpec, match_marks, render_scene
+from marknav.runs.metrics.matching import match_marks
+from marknav.sim.synthetic.scene import SceneSpec, render_scene
 from marknav.vision.detect import Detector
 from marknav.vision.palette import DEFAULT_PALETTE
 

@@ -16,7 +16,7 @@ import pytest
 from marknav.behaviours import keys
 from marknav.behaviours.perception import Perception
 from marknav.cli.main import main
-from marknav.missions.detector import (
+from marknav.missions.mission_detector import (
     HORIZON_SLACK_PX,
     LEARN_SPAN_DEG,
     ROBOT_FLOOR_PX,

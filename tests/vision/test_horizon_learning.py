@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from marknav.missions.detector import LEARN_SPAN_DEG, CameraDetector
+from marknav.missions.mission_detector import LEARN_SPAN_DEG, CameraDetector
 from marknav.vision.horizon_learning import HorizonLearner
 
 F, W, H = 590.0, 640, 480

@@ -7,14 +7,14 @@ import math
 import numpy as np
 import pytest
 
-from marknav.missions.detector import (
+from marknav.missions.mission_detector import (
     HORIZON_SLACK_PX,
     CameraDetector,
     CameraPose,
     camera_detector_config,
     horizon_band,
 )
-from marknav.sim.camera import CameraConfig, tilt_homography
+from marknav.sim.builtin_camera import CameraConfig, tilt_homography
 
 F, W, H = 590.0, 640, 480
 CY = (H - 1) / 2.0

@@ -329,7 +329,7 @@ def test_quadrants_differ_reads_the_background_of_each_quadrant(view: bool) -> N
 def test_detection_compiles_nothing_after_warm_up() -> None:
     """Every layout the detector passes is compiled at set-up: a frame's detection does not
     stop to compile (≈ 0.1-0.3 s)."""
-    from marknav.runs.bench_vision import bench_frames
+    from marknav.sim.synthetic.scene import bench_frames
 
     kernels.warm_up()
     loops = [getattr(kernels, name) for name in kernels.__all__ if name != "warm_up"]
@@ -365,7 +365,7 @@ def test_an_installation_without_a_writable_cache_still_detects(tmp_path: Path) 
     """Where numba can cache nowhere (a read-only install; simulated by allowing only the
     IPython locator), the loops are compiled in the process instead of failing at import."""
     frame = tmp_path / "frame.png"
-    from marknav.runs.bench_vision import bench_frames
+    from marknav.sim.synthetic.scene import bench_frames
 
     scene = bench_frames(1, 3)[0]
     cv2.imwrite(str(frame), scene.image)

@@ -18,7 +18,7 @@ import yaml
 from marknav.cli.main import main
 from marknav.missions.schema import load_mission
 from marknav.planning.kinematics import Pose
-from marknav.sim.camera import Renderer
+from marknav.sim.builtin_camera import Renderer
 from marknav.sim.world import Background, Conditions, MarkSpec, World
 from marknav.vision.detect import Detector
 from marknav.vision.palette import ColourRange, Palette

@@ -1,5 +1,5 @@
 """The detector on real photographs (``tests/data/labels.json``) and on marks composited into
-them (:mod:`marknav.runs.composite`), and the detector changes those frames asked for."""
+them (:mod:`marknav.sim.synthetic.composite`), and the detector changes those frames asked for."""
 
 from __future__ import annotations
 
@@ -10,15 +10,15 @@ import cv2
 import numpy as np
 import pytest
 
-from marknav.runs.bench_real import (
+from marknav.runs.benchmarks.photos import (
     LabelledPhoto,
     default_corpus,
     load_corpus,
     real_false_marks,
     real_recall,
 )
-from marknav.runs.bench_vision import match_marks
-from marknav.runs.composite import (
+from marknav.runs.metrics.matching import match_marks
+from marknav.sim.synthetic.composite import (
     COMPOSITE_PALETTE,
     CompositeSpec,
     composite_frame,

@@ -1,6 +1,7 @@
 """The Create 2 as a MuJoCo body: what the simulated Create's Open Interface moves.
 
-:class:`MujocoBody` is a :class:`marknav.sim.create.Body`: :meth:`~MujocoBody.drive` sets the
+:class:`MujocoBody` is a :class:`marknav.sim.simulated_create.Body`: :meth:`~MujocoBody.drive` sets
+the
 two wheel actuators' target speeds (commanded mm/s over the nominal 36 mm tyre radius, as the
 Create's own wheel controller regulates wheel rotation from its encoders) and steps the physics
 for the time asked; it returns each wheel's joint rotation times the nominal radius — the
@@ -18,7 +19,7 @@ from typing import Any
 
 from marknav.core.errors import InputError
 from marknav.planning.kinematics import Pose, wrap_angle
-from marknav.sim.camera import CameraConfig
+from marknav.sim.builtin_camera import CameraConfig
 from marknav.sim.lens import LensWarp, lens_warp
 from marknav.sim.mujoco.gl import import_mujoco
 from marknav.sim.mujoco.model import CREATE2, DEFAULT_CAMERA, TIMESTEP_S, CreateSpec, build_model

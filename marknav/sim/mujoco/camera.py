@@ -24,7 +24,7 @@ import cv2
 import numpy as np
 
 from marknav.core.clock import Clock
-from marknav.sim.camera import CameraConfig
+from marknav.sim.builtin_camera import CameraConfig
 from marknav.sim.mujoco.body import MujocoBody
 from marknav.sim.mujoco.gl import make_renderer
 from marknav.vision.estimate import PowerLaw
@@ -65,7 +65,7 @@ class MujocoCamera:
         delay = cond.camera_latency_s + cond.processing_s
         if not (math.isfinite(delay) and delay >= 0.0):
             raise ValueError(f"camera latency must be ≥ 0 s, got {delay}")
-        #: Capture to processing (s), as :attr:`marknav.sim.camera.SimCamera.delay_s`.
+        #: Capture to processing (s), as :attr:`marknav.sim.builtin_camera.SimCamera.delay_s`.
         self.delay_s = float(delay)
         self._late: deque[Frame] = deque()  # rendered, not yet old enough to deliver
         self._index = 0

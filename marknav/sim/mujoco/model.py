@@ -6,7 +6,8 @@ them.
 
 - **Marks** are thin discs (2 mm) of the world's radius, their centres at the camera's height
   (:data:`CAMERA_HEIGHT_MM`), faces turned by ``yaw_deg`` (normal (sin yaw, −cos yaw, 0)), matte,
-  coloured as the built-in simulator paints them (:func:`marknav.sim.camera.mark_bgr`: the middle
+  coloured as the built-in simulator paints them (:func:`marknav.sim.builtin_camera.mark_bgr`: the
+  middle
   of the colour's hue range, full saturation and value). Each stands on a thin pole behind the
   disc and a round base of the mark's radius, :data:`MARK_BASE_HEIGHT_MM` high: the base is what
   the robot's bumper can touch, so a collision happens where the built-in engine's (a mark is a
@@ -38,7 +39,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from marknav.sim.camera import CameraConfig, mark_bgr
+from marknav.sim.builtin_camera import CameraConfig, mark_bgr
 from marknav.sim.mujoco.scene import Light, MujocoScene, near_hue
 from marknav.sim.scenery import room_photo
 from marknav.sim.world import World

@@ -1,0 +1,325 @@
+"""Where the runs of an evaluation execute: this process, a pool of local worker processes, or
+an existing Dask cluster (issue 16).
+
+A job is ``(mission spec, seed)``; every backend runs :func:`marknav.runs.evaluation.job.run_seed`
+on it and hands each :class:`~marknav.runs.evaluation.job.SeedResult` to ``on_result`` as soon as
+it arrives (in completion order; the summary sorts by seed). A run is deterministic for its
+seed, so the backend changes the wall time and nothing else.
+
+Local pool (``--jobs J``), the lifetime rules of issue 15 item 9:
+
+- workers are ``spawn``-ed (they share nothing with the parent: py_trees' blackboard is
+  process-global); each ignores SIGINT, runs its job in a helper thread (so no run installs
+  signal handlers in the worker) and leaves SIGTERM at its default, so the parent can end it at
+  once; a watchdog thread ends a worker whose parent has gone (``os.getppid()`` changed — the
+  parent was killed), so no worker outlives its parent by more than :data:`ORPHAN_POLL_S`;
+- in the parent, SIGINT and SIGTERM raise :class:`EvaluationInterrupted` while the pool runs;
+  the parent then ignores further SIGINT/SIGTERM, terminates its workers, shuts the pool down
+  (which also lets multiprocessing's resource tracker exit) and re-raises — the CLI exits 130.
+
+Dask (``--dask tcp://HOST:PORT``, ``pip install 'marknav[cluster]'``): the jobs are submitted to
+the scheduler as tasks; the workers must be able to import marknav and read the mission file at
+the same absolute path (the same checkout or a shared file system). On Ctrl-C every task of this
+evaluation is cancelled on the cluster before the command exits. A lock serialises runs inside
+one worker process (py_trees' blackboard is process-global), so workers should be started with
+``--nthreads 1`` (``dask worker tcp://HOST:PORT --nthreads 1``).
+
+Every backend runs each job with OpenCV on one thread (:func:`one_opencv_thread`): one run per
+core, not one run spread thinly over all of them.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing
+import os
+import signal
+import threading
+import time
+import uuid
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from contextlib import AbstractContextManager, contextmanager
+from pathlib import Path
+from types import FrameType
+from typing import Any
+
+from marknav.core.cvthreads import one_opencv_thread
+from marknav.core.errors import InputError
+
+__all__ = ["ORPHAN_POLL_S", "EvaluationInterrupted", "Job", "one_opencv_thread", "run_jobs"]
+
+log = logging.getLogger(__name__)
+
+#: One evaluation job: the mission spec (a path) and the seed of its world.
+Job = (tuple[str, int] | tuple[str, int, tuple[str, ...]]
+       | tuple[str, int, tuple[str, ...], str | None])  # (mission, seed[, --set[, engine]])
+#: Called with each result as it arrives.
+OnResult = Callable[[Any], None]
+
+#: How often a pool worker checks that its parent is alive (s).
+ORPHAN_POLL_S = 0.5
+#: How long the parent waits between checks of its futures (s): bounds the reaction to signals.
+WAIT_S = 0.5
+#: How long the Dask scheduler has to answer marknav's first message (s): on a LAN it answers
+#: in milliseconds, over a busy Wi-Fi link (130-300 ms round trips) within a second.
+DASK_PROBE_TIMEOUT_S = 3.0
+#: How long the Dask client then has to register with that scheduler (s).
+DASK_CONNECT_TIMEOUT_S = 10.0
+
+#: Serialises runs inside one process (py_trees' blackboard is process-global).
+_RUN_LOCK = threading.Lock()
+
+
+#: What a job runs: ``task(mission_path, seed, max_time_s, *rest)`` -> a picklable result.
+Task = Callable[..., Any]
+
+
+class EvaluationInterrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM arrived while the evaluation's runs were executing."""
+
+
+def _run(task: Task, job: Job, max_time_s: float | None) -> Any:
+    with _RUN_LOCK, one_opencv_thread():
+        return task(job[0], job[1], max_time_s, *job[2:])  # job[2]: --set overrides
+
+
+# ------------------------------------------------------------------------------ signals
+
+
+@contextmanager
+def _signals_handled(handler: Any, signals: tuple[signal.Signals, ...] = (signal.SIGINT,
+                                                                          signal.SIGTERM)
+                     ) -> Iterator[None]:
+    """Route ``signals`` to ``handler`` (a function or ``signal.SIG_IGN``) for a while, then
+    restore the previous handlers (main thread only: elsewhere the caller's thread handles
+    signals and this does nothing)."""
+    try:
+        old = {s: signal.signal(s, handler) for s in signals}
+    except ValueError:  # not the main thread
+        yield
+        return
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+
+
+def _raise_interrupted(signum: int, frame: FrameType | None) -> None:
+    raise EvaluationInterrupted(signal.Signals(signum).name)
+
+
+def _interruptible() -> AbstractContextManager[None]:
+    """SIGINT and SIGTERM raise :class:`EvaluationInterrupted` (main thread only)."""
+    return _signals_handled(_raise_interrupted)
+
+
+def _signals_ignored(signals: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
+                     ) -> AbstractContextManager[None]:
+    """Ignore ``signals`` for a while, e.g. so that a second Ctrl-C (or SIGTERM) cannot
+    interrupt the clean-up (main thread only)."""
+    return _signals_handled(signal.SIG_IGN, signals)
+
+
+# ----------------------------------------------------------------------------- serial
+
+
+def _run_serial(task: Task, jobs: Sequence[Job], max_time_s: float | None,
+                on_result: OnResult) -> int:
+    for job in jobs:
+        on_result(_run(task, job, max_time_s))
+    return 1
+
+
+# --------------------------------------------------------------------------- local pool
+
+
+def _watch_parent(parent: int) -> None:
+    while True:
+        time.sleep(ORPHAN_POLL_S)
+        if os.getppid() != parent:
+            os._exit(1)  # the parent is gone: nobody wants this run's result
+
+
+def _init_worker(level: int, parent: int) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides what a Ctrl-C means
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    threading.Thread(target=_watch_parent, args=(parent,), name="marknav-parent-watch",
+                     daemon=True).start()
+
+
+def _pool_task(task: Task, job: Job, max_time_s: float | None) -> Any:
+    """Run one job in a helper thread: a run then leaves the worker's signal handling alone
+    (SIGINT ignored, SIGTERM fatal), whatever the run loop installs in a main thread."""
+    out: list[Any] = []
+    err: list[BaseException] = []
+
+    def target() -> None:
+        try:
+            out.append(_run(task, job, max_time_s))
+        except BaseException as exc:
+            err.append(exc)
+
+    t = threading.Thread(target=target, name=f"marknav-seed-{job[1]}")
+    t.start()
+    t.join()
+    if err:
+        raise err[0]
+    return out[0]
+
+
+def _stop_workers(procs: Sequence[multiprocessing.process.BaseProcess]) -> None:
+    for p in procs:
+        if p.is_alive():
+            p.terminate()
+    deadline = time.monotonic() + 2.0
+    for p in procs:
+        p.join(max(0.0, deadline - time.monotonic()))
+        if p.is_alive():
+            p.kill()
+            p.join(1.0)
+
+
+def _run_pool(task: Task, jobs: Sequence[Job], max_time_s: float | None, on_result: OnResult,
+              workers: int) -> int:
+    ctx = multiprocessing.get_context("spawn")
+    level = logging.getLogger().getEffectiveLevel()
+    before = set(multiprocessing.active_children())
+    procs: list[multiprocessing.process.BaseProcess] = []
+    with _interruptible():
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
+                                   initializer=_init_worker, initargs=(level, os.getpid()))
+        try:
+            # The workers start (in submit) with SIGINT ignored, inherited: a Ctrl-C while one
+            # is still importing cannot kill it with a traceback; the parent handles Ctrl-C.
+            with _signals_ignored((signal.SIGINT,)):
+                pending: set[Future[Any]] = {pool.submit(_pool_task, task, job, max_time_s)
+                                             for job in jobs}
+            procs = [p for p in multiprocessing.active_children() if p not in before]
+            while pending:
+                done, pending = wait(pending, timeout=WAIT_S, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    on_result(fut.result())
+        except BaseException:
+            with _signals_ignored():
+                procs = procs or [p for p in multiprocessing.active_children()
+                                  if p not in before]
+                # The pool cancels what has not started (cancelling futures here races with
+                # its manager thread), the workers end now, then the manager thread is joined.
+                pool.shutdown(wait=False, cancel_futures=True)
+                _stop_workers(procs)
+                pool.shutdown(wait=True)
+            raise
+        pool.shutdown(wait=True)
+    return workers
+
+
+# -------------------------------------------------------------------------------- Dask
+
+
+def _dask_client(address: str) -> Any:
+    try:
+        from distributed import Client
+    except ImportError:
+        raise InputError("needs dask.distributed: pip install 'marknav[cluster]'",
+                         field="--dask") from None
+    if "://" not in address:
+        raise InputError(f"give the scheduler's address as tcp://HOST:PORT, got {address!r}",
+                         field="--dask")
+    _probe_scheduler(address, DASK_PROBE_TIMEOUT_S)
+    try:
+        return Client(address, timeout=DASK_CONNECT_TIMEOUT_S, set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise InputError(f"cannot connect to the Dask scheduler at {address}: {exc}",
+                         field="--dask") from None
+
+
+def _probe_scheduler(address: str, timeout_s: float) -> None:
+    """:class:`InputError` unless a Dask scheduler at ``address`` answers within ``timeout_s``.
+
+    Asked on a private event loop, bounded as a whole: ``distributed.Client``'s own timeout
+    does not cover a peer that accepts the connection and never answers (it waited for ever),
+    and a client that failed to start leaves threads whose clean-up printed a traceback
+    (``TimeoutError: timed out after 20 s``) after the error message. No client exists until
+    this passed."""
+    import asyncio
+
+    from distributed.comm import connect
+
+    async def identity() -> Any:
+        comm = await connect(address, timeout=timeout_s)
+        try:
+            await comm.write({"op": "identity"})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    try:
+        reply = asyncio.run(asyncio.wait_for(identity(), timeout_s))
+    except (OSError, TimeoutError, ValueError) as exc:  # CommClosedError is an OSError
+        why = str(exc) or f"no answer within {timeout_s:g} s"
+        raise InputError(f"cannot connect to the Dask scheduler at {address}: {why}",
+                         field="--dask") from None
+    kind = reply.get("type") if isinstance(reply, dict) else None
+    if kind != "Scheduler":
+        raise InputError(f"{address} answered, but is not a Dask scheduler ({kind or reply!r})",
+                         field="--dask")
+
+
+def _run_dask(task: Task, jobs: Sequence[Job], max_time_s: float | None, on_result: OnResult,
+              address: str) -> int:
+    from distributed import as_completed
+
+    client = _dask_client(address)
+    futures: list[Any] = []
+    try:
+        with _interruptible():
+            workers = len(client.nthreads()) or 1
+            tag = uuid.uuid4().hex[:8]
+            futures = [client.submit(_run, task, job, max_time_s, pure=False, retries=0,
+                                     key=f"marknav-{Path(job[0]).stem}-{job[1]}-{tag}")
+                       for job in jobs]
+            for fut in as_completed(futures, loop=client.loop):
+                on_result(fut.result())
+    except BaseException:
+        with _signals_ignored():
+            try:
+                client.cancel(futures, force=True)
+            except Exception:
+                log.exception("cancelling the cluster's tasks failed")
+            client.close(timeout=5)
+        raise
+    client.close(timeout=5)
+    return workers
+
+
+# ------------------------------------------------------------------------------- entry
+
+
+def run_jobs(task: Task, jobs: Sequence[Job], *, max_time_s: float | None = None,
+             workers: int = 1,
+             dask: str | None = None, on_result: OnResult | None = None) -> tuple[list[Any], int]:
+    """Run ``task(mission, seed, max_time_s, *rest)`` for every job ``(mission, seed, *rest)``
+    (a module-level function, so a process pool or a cluster can ship it by name); return the
+    results (completion order) and how many workers ran them.
+
+    ``dask`` (a scheduler address) runs them on that cluster, else ``workers`` > 1 in a local
+    process pool, else here. ``on_result`` sees each result as it arrives. Bad input raised by
+    a run (:class:`InputError`) and Ctrl-C propagate, after the other runs are stopped.
+    """
+    results: list[Any] = []
+
+    def done(result: Any) -> None:
+        results.append(result)
+        if on_result is not None:
+            on_result(result)
+
+    if dask is not None:
+        used = _run_dask(task, jobs, max_time_s, done, dask)
+    elif min(workers, len(jobs)) > 1:
+        used = _run_pool(task, jobs, max_time_s, done, min(workers, len(jobs)))
+    else:
+        used = _run_serial(task, jobs, max_time_s, done)
+    return results, used

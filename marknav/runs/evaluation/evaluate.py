@@ -1,0 +1,164 @@
+"""Evaluation: many simulated runs of one mission on generated, randomised worlds, and statistics.
+
+Issue 7 (``marknav evaluate``). Run ``k`` uses seed ``S + k``: the world is generated from the
+mission's route with that seed and randomised conditions (lighting, colour cast, noise, blur,
+wheel mismatch and slip, mark yaw, camera latency — :func:`marknav.sim.world.random_conditions`),
+exactly what ``marknav run MISSION --world random --seed S+k`` replays. Runs are independent and
+deterministic for their seed, so they can run in parallel processes without changing any result.
+
+The per-run job is :mod:`marknav.runs.evaluation.job`, the statistics and their summary
+:mod:`marknav.runs.metrics.statistics`, where the runs execute
+:mod:`marknav.runs.evaluation.backends`,
+and the position accuracy experiment (``marknav evaluate --accuracy``)
+:mod:`marknav.runs.evaluation.accuracy`; this module runs an evaluation and is where the rest of
+marknav imports all of them from.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from marknav.core.errors import InputError
+from marknav.runs.evaluation.accuracy import (
+    ACCURACY_GRIDS,
+    AccuracyResult,
+    format_accuracy,
+    plot_accuracy,
+    position_accuracy,
+)
+from marknav.runs.evaluation.backends import Job, run_jobs
+from marknav.runs.evaluation.job import RANDOM, SeedResult, WaypointTruth, replay_command, run_seed
+from marknav.runs.metrics.statistics import (
+    CLEARANCE_TOLERANCE_MM,
+    Evaluation,
+    format_evaluation,
+    percentile,
+    summarise,
+    wilson_interval,
+)
+
+__all__ = [
+    "ACCURACY_GRIDS",
+    "CLEARANCE_TOLERANCE_MM",
+    "AccuracyResult",
+    "Evaluation",
+    "SeedResult",
+    "WaypointTruth",
+    "evaluate",
+    "format_accuracy",
+    "format_evaluation",
+    "percentile",
+    "plot_accuracy",
+    "position_accuracy",
+    "replay_command",
+    "run_seed",
+    "summarise",
+    "wilson_interval",
+]
+
+
+Progress = Callable[[int, int, int], None]
+
+
+class EvaluationStopped(KeyboardInterrupt):
+    """The evaluation was interrupted; ``evaluation`` summarises the runs that had finished
+    (``interrupted`` set). A ``KeyboardInterrupt``: a caller that does not look for it sees
+    the interruption as before."""
+
+    def __init__(self, evaluation: Evaluation, signame: str = "SIGINT") -> None:
+        super().__init__(signame)
+        self.evaluation = evaluation
+
+
+def evaluate(
+    mission_path: str | Path,
+    *,
+    runs: int,
+    seed: int = 0,
+    jobs: int = 1,
+    max_time_s: float | None = None,
+    min_success: float = 0.95,
+    progress: Progress | None = None,
+    overrides: Sequence[str] = (),
+    dask: str | None = None,
+    engine: str | None = None,
+) -> Evaluation:
+    """Run ``runs`` simulated missions (seeds ``seed`` … ``seed + runs − 1``) and summarise them.
+
+    ``jobs`` > 1 runs them in that many worker processes (each loads the mission from its path);
+    the results do not depend on it; ``engine`` overrides the mission's simulator engine;
+    ``dask`` (``tcp://HOST:PORT``) runs them on that Dask
+    cluster instead (:mod:`marknav.runs.evaluation.backends`). ``progress(done, total,
+    successes)`` is called with ``done = 0`` when the runs start, then after each run. Bad
+    input raises :class:`InputError` before anything runs.
+    """
+    from marknav.missions.schema import load_mission
+
+    if runs < 1:
+        raise InputError(f"must be at least 1, got {runs}", field="--runs")
+    if jobs < 1:
+        raise InputError(f"must be at least 1, got {jobs}", field="--jobs")
+    if seed < 0:
+        raise InputError(f"must be ≥ 0, got {seed}", field="--seed")
+    if max_time_s is not None and not max_time_s > 0:
+        raise InputError(f"must be positive, got {max_time_s}", field="--max-time")
+    if not 0.0 <= min_success <= 1.0:
+        raise InputError(f"must be between 0 and 1, got {min_success}", field="--min-success")
+    path = str(mission_path)
+    from marknav.missions.overrides import parse_overrides
+
+    if path == RANDOM:
+        if overrides:
+            raise InputError("changes a mission file; random missions are drawn whole from "
+                             "their seed", field="--set")
+        name, clearance = "random missions", 0.0
+        engine_used = engine or "builtin"
+    else:
+        # bad input (and a bad --set) fails here, before any worker starts
+        mission = load_mission(path, overrides=parse_overrides(overrides))
+        name, clearance = mission.name, mission.navigation.clearance_mm
+        engine_used = engine or (mission.sim.engine if mission.sim is not None else "builtin")
+    if engine_used == "mujoco":
+        # no MuJoCo or no headless OpenGL: exit 2 here, not a crash in every worker
+        from marknav.sim.mujoco.gl import import_mujoco
+
+        import_mujoco()
+    seeds = list(range(seed, seed + runs))
+    results: list[SeedResult] = []
+    wall0 = time.perf_counter()
+
+    def done(result: SeedResult) -> None:
+        results.append(result)
+        if progress is not None:
+            progress(len(results), runs, sum(1 for s in results if s.success))
+
+    # Where the runs execute (this process, a local pool, a Dask cluster): evaluate_backends.
+    if progress is not None:
+        progress(0, runs, 0)
+    resolve = dask is not None and path != RANDOM  # a cluster's cwd differs
+    spec = str(Path(path).resolve()) if resolve else path  # a cluster's cwd differs
+
+    def summary(workers: int) -> Evaluation:
+        ev = summarise(list(results), mission=name, mission_path=path,
+                       clearance_mm=clearance, min_success=min_success,
+                       max_time_s=max_time_s, jobs=workers,
+                       wall_total_s=time.perf_counter() - wall0)
+        ev.overrides = tuple(overrides)
+        ev.planned_runs = runs
+        ev.engine, ev.engine_given = engine_used, engine is not None
+        return ev
+
+    # (mission, seed, overrides[, engine]): the engine only when --engine was given
+    jobs_list: list[Job] = [(spec, s, tuple(overrides), engine) if engine is not None
+                            else (spec, s, tuple(overrides)) for s in seeds]
+    try:
+        _, workers = run_jobs(run_seed, jobs_list,
+                              max_time_s=max_time_s,
+                              workers=jobs, dask=dask, on_result=done)
+    except KeyboardInterrupt as exc:  # what finished is kept (the runs cut short are not)
+        ev = summary(jobs)
+        ev.interrupted = True
+        raise EvaluationStopped(ev, str(exc) or "SIGINT") from exc
+    return summary(workers)
