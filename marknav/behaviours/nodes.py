@@ -1,7 +1,8 @@
 """marknav's behaviours as node types of a mission's ``tree:`` section.
 
-:func:`register` adds them to a :class:`marknav.missions.registry.NodeRegistry` (list this module
-in ``marknav.missions.registry.BEHAVIOUR_MODULES``), each with a pydantic model of its ``params``.
+:func:`register` adds them to a :class:`marknav.missions.registry.NodeRegistry`, each with a
+pydantic model of its ``params``; :func:`marknav.behaviours.catalogue.register`, the target of
+marknav's ``marknav.nodes`` entry point, calls it.
 Settings left out of ``params`` come from the mission at setup, as in the default tree.
 
 =======================  =====================================================================

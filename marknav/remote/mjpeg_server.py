@@ -584,10 +584,6 @@ class MjpegServer:
         return self.base_url + STREAM_PATH
 
     @property
-    def snapshot_url(self) -> str:
-        return self.base_url + SNAPSHOT_PATH
-
-    @property
     def clients(self) -> int:
         """Streams being served right now."""
         return self._httpd.clients

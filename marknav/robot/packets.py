@@ -110,14 +110,62 @@ class ChargingState(IntEnum):
     FAULT = 5
 
 
-def _bit(raw: int, n: int) -> bool:
-    return bool(raw >> n & 1)
+#: A bit-field packet's layout: (attribute name, bit number) for every bit the packet defines.
+_BitTable = tuple[tuple[str, int], ...]
+
+
+def _bits_from_raw(raw: int, table: _BitTable) -> dict[str, bool]:
+    """``raw``'s bits named by ``table`` (bits the table leaves out are ignored)."""
+    return {name: bool(raw >> bit & 1) for name, bit in table}
+
+
+def _bits_to_raw(value: object, table: _BitTable) -> int:
+    """The raw integer with ``table``'s bits set from ``value``'s attributes of those names."""
+    raw = 0
+    for name, bit in table:
+        raw |= bool(getattr(value, name)) << bit
+    return raw
+
+
+#: Packet 7 (bumps and wheel drops); the caster wheel drop (bit 4) exists on Create 1 only.
+_BUMPS_CREATE2: _BitTable = (("bump_right", 0), ("bump_left", 1), ("wheel_drop_right", 2),
+                            ("wheel_drop_left", 3))
+_BUMPS_BITS: Mapping[Model, _BitTable] = MappingProxyType({
+    Model.CREATE1: (*_BUMPS_CREATE2, ("caster_drop", 4)),
+    Model.CREATE2: _BUMPS_CREATE2,
+})
+
+#: Packet 14 (overcurrents): the wheels are bits 3/4 on both models, bits 0-2 differ.
+_WHEEL_OVERCURRENTS: _BitTable = (("right_wheel", 3), ("left_wheel", 4))
+_OVERCURRENT_BITS: Mapping[Model, _BitTable] = MappingProxyType({
+    Model.CREATE1: (("low_side_driver_1", 0), ("low_side_driver_0", 1), ("low_side_driver_2", 2),
+                    *_WHEEL_OVERCURRENTS),
+    Model.CREATE2: (("side_brush", 0), ("main_brush", 2), *_WHEEL_OVERCURRENTS),
+})
+
+#: Packet 18 (buttons).
+_BUTTON_BITS: Mapping[Model, _BitTable] = MappingProxyType({
+    Model.CREATE1: (("play", 0), ("advance", 2)),
+    Model.CREATE2: (("clean", 0), ("spot", 1), ("dock", 2), ("minute", 3), ("hour", 4),
+                    ("day", 5), ("schedule", 6), ("clock", 7)),
+})
+
+#: Packet 34 (charging sources available), the same on both models.
+_CHARGING_SOURCE_BITS: _BitTable = (("internal_charger", 0), ("home_base", 1))
+
+#: Packet 32 (cargo bay digital inputs, Create 1).
+_CARGO_BAY_BITS: _BitTable = (("digital_0", 0), ("digital_1", 1), ("digital_2", 2),
+                            ("digital_3", 3), ("baud_rate_change", 4))
+
+#: Packet 45 (light bumper, Create 2).
+_LIGHT_BUMPER_BITS: _BitTable = (("left", 0), ("front_left", 1), ("center_left", 2),
+                               ("center_right", 3), ("front_right", 4), ("right", 5))
 
 
 @dataclass(frozen=True)
 class BumpsAndWheelDrops:
-    """Packet 7: bit0 bump right, bit1 bump left, bit2 drop right, bit3 drop left, bit4 caster
-    (Create 1 only; always False on Create 2)."""
+    """Packet 7 (bits: ``_BUMPS_BITS``): bump right/left, wheel drop right/left, and the caster
+    drop on Create 1 (always False when decoded for a Create 2)."""
 
     bump_right: bool = False
     bump_left: bool = False
@@ -127,18 +175,17 @@ class BumpsAndWheelDrops:
 
     @classmethod
     def from_raw(cls, raw: int, model: Model) -> BumpsAndWheelDrops:
-        return cls(_bit(raw, 0), _bit(raw, 1), _bit(raw, 2), _bit(raw, 3),
-                   model is Model.CREATE1 and _bit(raw, 4))
+        return cls(**_bits_from_raw(raw, _BUMPS_BITS[model]))
 
     def to_raw(self) -> int:
-        return (self.bump_right | self.bump_left << 1 | self.wheel_drop_right << 2
-                | self.wheel_drop_left << 3 | self.caster_drop << 4)
+        """The raw byte, every field written (a Create 2's caster_drop is False, see from_raw)."""
+        return _bits_to_raw(self, _BUMPS_BITS[Model.CREATE1])
 
 
 @dataclass(frozen=True)
 class Overcurrents:
-    """Packet 14. Both models: bit3 right wheel, bit4 left wheel. Create 1: bit0 low-side driver 1,
-    bit1 LD0, bit2 LD2. Create 2: bit0 side brush, bit1 (vacuum, reserved), bit2 main brush."""
+    """Packet 14 (bits: ``_OVERCURRENT_BITS``). Both models: the right and left wheel. Create 1:
+    low-side drivers 1, 0, 2. Create 2: side brush, (vacuum, reserved, not decoded), main brush."""
 
     left_wheel: bool = False
     right_wheel: bool = False
@@ -150,25 +197,16 @@ class Overcurrents:
 
     @classmethod
     def from_raw(cls, raw: int, model: Model) -> Overcurrents:
-        if model is Model.CREATE1:
-            return cls(left_wheel=_bit(raw, 4), right_wheel=_bit(raw, 3),
-                       low_side_driver_0=_bit(raw, 1), low_side_driver_1=_bit(raw, 0),
-                       low_side_driver_2=_bit(raw, 2))
-        return cls(left_wheel=_bit(raw, 4), right_wheel=_bit(raw, 3),
-                   main_brush=_bit(raw, 2), side_brush=_bit(raw, 0))
+        return cls(**_bits_from_raw(raw, _OVERCURRENT_BITS[model]))
 
     def to_raw(self, model: Model) -> int:
-        wheels = self.right_wheel << 3 | self.left_wheel << 4
-        if model is Model.CREATE1:
-            return (wheels | self.low_side_driver_1 | self.low_side_driver_0 << 1
-                    | self.low_side_driver_2 << 2)
-        return wheels | self.side_brush | self.main_brush << 2
+        return _bits_to_raw(self, _OVERCURRENT_BITS[model])
 
 
 @dataclass(frozen=True)
 class Buttons:
-    """Packet 18. Create 1: bit0 Play, bit2 Advance. Create 2: bit0 Clean, 1 Spot, 2 Dock,
-    3 Minute, 4 Hour, 5 Day, 6 Schedule, 7 Clock. Buttons a model lacks are False."""
+    """Packet 18 (bits: ``_BUTTON_BITS``). Create 1: Play, Advance. Create 2: Clean, Spot,
+    Dock, Minute, Hour, Day, Schedule, Clock. Buttons a model lacks are False."""
 
     play: bool = False
     advance: bool = False
@@ -183,28 +221,25 @@ class Buttons:
 
     @classmethod
     def from_raw(cls, raw: int, model: Model) -> Buttons:
-        if model is Model.CREATE1:
-            return cls(play=_bit(raw, 0), advance=_bit(raw, 2))
-        return cls(clean=_bit(raw, 0), spot=_bit(raw, 1), dock=_bit(raw, 2), minute=_bit(raw, 3),
-                   hour=_bit(raw, 4), day=_bit(raw, 5), schedule=_bit(raw, 6), clock=_bit(raw, 7))
+        return cls(**_bits_from_raw(raw, _BUTTON_BITS[model]))
 
 
 @dataclass(frozen=True)
 class ChargingSources:
-    """Packet 34: bit0 internal charger, bit1 home base."""
+    """Packet 34 (bits: ``_CHARGING_SOURCE_BITS``): internal charger, home base."""
 
     internal_charger: bool = False
     home_base: bool = False
 
     @classmethod
     def from_raw(cls, raw: int) -> ChargingSources:
-        return cls(_bit(raw, 0), _bit(raw, 1))
+        return cls(**_bits_from_raw(raw, _CHARGING_SOURCE_BITS))
 
 
 @dataclass(frozen=True)
 class CargoBayInputs:
-    """Packet 32 (Create 1): digital inputs 0–3 (bits 0–3) and the active-low baud-rate-change
-    / device-detect pin (bit 4, True = high, the default)."""
+    """Packet 32 (Create 1; bits: ``_CARGO_BAY_BITS``): digital inputs 0–3 and the active-low
+    baud-rate-change / device-detect pin (True = high, the default)."""
 
     digital_0: bool = False
     digital_1: bool = False
@@ -214,13 +249,13 @@ class CargoBayInputs:
 
     @classmethod
     def from_raw(cls, raw: int) -> CargoBayInputs:
-        return cls(_bit(raw, 0), _bit(raw, 1), _bit(raw, 2), _bit(raw, 3), _bit(raw, 4))
+        return cls(**_bits_from_raw(raw, _CARGO_BAY_BITS))
 
 
 @dataclass(frozen=True)
 class LightBumper:
-    """Packet 45 (Create 2): bit0 left, 1 front left, 2 centre left, 3 centre right, 4 front
-    right, 5 right."""
+    """Packet 45 (Create 2; bits: ``_LIGHT_BUMPER_BITS``): left, front left, centre left,
+    centre right, front right, right."""
 
     left: bool = False
     front_left: bool = False
@@ -231,12 +266,10 @@ class LightBumper:
 
     @classmethod
     def from_raw(cls, raw: int) -> LightBumper:
-        return cls(*(_bit(raw, n) for n in range(6)))
+        return cls(**_bits_from_raw(raw, _LIGHT_BUMPER_BITS))
 
     def to_raw(self) -> int:
-        bits = (self.left, self.front_left, self.center_left, self.center_right,
-                self.front_right, self.right)
-        return sum(int(b) << n for n, b in enumerate(bits))
+        return _bits_to_raw(self, _LIGHT_BUMPER_BITS)
 
 
 @dataclass(frozen=True)
@@ -252,22 +285,6 @@ class PacketSpec:
     signed: bool
     decode: Callable[[int], Any] = int
     fields: Callable[[Any], dict[str, Any]] = field(default=lambda _v: {})
-
-    def raw_from_bytes(self, data: bytes) -> int:
-        """The raw integer of ``data`` (big-endian, two's complement if signed)."""
-        if len(data) != self.size:
-            raise ValueError(f"packet {self.id} ({self.name}) has {self.size} data bytes, "
-                             f"got {len(data)}")
-        return int.from_bytes(data, "big", signed=self.signed)
-
-    def raw_to_bytes(self, raw: int) -> bytes:
-        """``raw`` encoded as the robot sends it, saturated to the packet's range."""
-        bits = 8 * self.size
-        if self.signed:
-            lo, hi = -(1 << (bits - 1)), (1 << (bits - 1)) - 1
-        else:
-            lo, hi = 0, (1 << bits) - 1
-        return max(lo, min(hi, int(raw))).to_bytes(self.size, "big", signed=self.signed)
 
 
 class _To:
@@ -299,10 +316,9 @@ def _build_table(model: Model) -> dict[int, PacketSpec]:
         return None if raw == no_ir else raw
 
     def bumps(v: BumpsAndWheelDrops) -> dict[str, Any]:
-        # dataclasses.asdict's recursive copy, for five bools of every stream frame
-        return {"bump_right": v.bump_right, "bump_left": v.bump_left,
-                "wheel_drop_right": v.wheel_drop_right, "wheel_drop_left": v.wheel_drop_left,
-                "caster_drop": v.caster_drop}
+        # the five bools by the packet's own names (the SensorState's too); not asdict's
+        # recursive copy, for every stream frame
+        return {name: getattr(v, name) for name, _bit in _BUMPS_BITS[Model.CREATE1]}
 
     def overcurrents(v: Overcurrents) -> dict[str, Any]:
         return {"overcurrents": v, "overcurrent_left_wheel": v.left_wheel,
@@ -660,24 +676,6 @@ class SensorState:
     side_brush_current_ma: int = 0
     stasis: int = 0
     received: frozenset[int] = frozenset()
-
-    @property
-    def any_bump(self) -> bool:
-        return self.bump_left or self.bump_right
-
-    @property
-    def any_wheel_drop(self) -> bool:
-        return self.wheel_drop_left or self.wheel_drop_right or self.caster_drop
-
-    @property
-    def any_cliff(self) -> bool:
-        return (self.cliff_left or self.cliff_front_left or self.cliff_front_right
-                or self.cliff_right)
-
-    @property
-    def light_bumps(self) -> LightBumper:
-        """``light_bumper`` decoded into named bits."""
-        return LightBumper.from_raw(self.light_bumper)
 
     def with_packets(self, decoded: Mapping[int, Any]) -> SensorState:
         """A new state with the decoded single packets (id → value) merged in."""

@@ -15,15 +15,15 @@ What it implements, from the Create Open Interface specifications (``shared/refe
 - *Drive Direct* (opcode 145, ±500 mm/s per wheel) is the output, through :class:`WheelSink`.
   Speeds over the limit are scaled together (the curve is kept) and rounded to whole mm/s.
 
-States and events (``transitions``, ``auto_transitions=False`` so no ``to_<state>()`` jumps past
-the guards)::
-
-    disconnected --connect--> ready --drive--> driving --stop / command_timeout--> ready
-    ready, driving --bump--> bumped --bump_cleared--> ready
-    ready, driving, bumped --fault / sensor_timeout--> fault --reset [condition gone]--> ready
-    any but e-stopped --estop--> e-stopped --reset [condition gone]--> ready
-    (reset goes to bumped instead of ready while a bumper is still pressed, and an e-stop made
-    before any connect resets to disconnected)
+States and events: a ``transitions.Machine`` over :class:`SafetyState` with
+``auto_transitions=False``, so no ``to_<state>()`` jumps past the guards. Its transition table, in
+:class:`SafetyLayer`'s constructor, is the only drawing of the chart:
+:func:`marknav.robot.safety_chart.safety_chart` renders it, and the documentation's page on the
+safety machine (``docs/explanation/safety.md``) shows that rendering. In short: ``connect`` leads
+to ``ready``, ``drive`` to ``driving``, a bump to the latched ``bumped``, a fault or a silent
+sensor stream to the latched ``fault``, ``estop`` to ``estopped``, and ``reset`` (with the
+condition gone) back to ``ready`` — to ``bumped`` while a bumper is still pressed, and to
+``disconnected`` after an e-stop made before any connect.
 
 Every way into ``ready``, ``bumped``, ``fault`` and ``e-stopped`` writes a zero Drive Direct as the
 state is entered (once connected; before connect() nothing is written). A sink that raises
