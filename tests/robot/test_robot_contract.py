@@ -24,7 +24,7 @@ from marknav.robot.driver import CreateDriver
 from marknav.robot.oi import Model
 from marknav.robot.robot import BUMPED, DRIVING, READY, SAFETY_STATES, Robot
 from marknav.sim import protocol_createsim
-from marknav.sim.create import Body, SimulatedCreate
+from marknav.sim.simulated_create import Body, SimulatedCreate
 from marknav.testing.robot import FakeRobot
 
 TICK = oi.STREAM_PERIOD_S

@@ -96,7 +96,7 @@ def mjpeg(tmp: Path, clock: ManualClock) -> Case:
 
 
 def sim_camera(tmp: Path, clock: ManualClock) -> Case:
-    from marknav.sim.camera import SimCamera
+    from marknav.sim.builtin_camera import SimCamera
     from marknav.sim.world import Conditions, MarkSpec, World
     from marknav.vision.palette import DEFAULT_PALETTE
 
@@ -111,7 +111,7 @@ def mujoco_camera(tmp: Path, clock: ManualClock) -> Case:
 
     gl.backend()  # the headless renderer, chosen before anything imports mujoco
     pytest.importorskip("mujoco")
-    from marknav.sim.camera import CameraConfig
+    from marknav.sim.builtin_camera import CameraConfig
     from marknav.sim.mujoco.body import MujocoBody
     from marknav.sim.mujoco.camera import MujocoCamera
     from marknav.sim.world import Conditions, World
