@@ -205,22 +205,8 @@ def _incident(result: SeedResult, target_mm: float) -> list[str]:
     return problems
 
 
-def summarise(
-    results: Sequence[SeedResult],
-    *,
-    mission: str,
-    mission_path: str,
-    clearance_mm: float,
-    min_success: float = 0.95,
-    max_time_s: float | None = None,
-    jobs: int = 1,
-    wall_total_s: float = 0.0,
-) -> Evaluation:
-    """Aggregate per-seed results (any order; sorted by seed) into an :class:`Evaluation`."""
-    ordered = sorted(results, key=lambda s: s.seed)
-    ev = Evaluation(mission=mission, mission_path=mission_path, results=ordered,
-                    clearance_mm=clearance_mm, min_success=min_success, max_time_s=max_time_s,
-                    jobs=jobs, wall_total_s=wall_total_s)
+def _count_outcomes(ev: Evaluation, ordered: Sequence[SeedResult]) -> None:
+    """Runs, successes with their interval, and the totals of every kind of incident."""
     n = len(ordered)
     ev.runs = n
     if n:
@@ -239,17 +225,47 @@ def summarise(
     ev.runs_with_silent_failures = sum(1 for s in ordered if s.silent_failures)
     ev.doubtful = sum(s.doubtful for s in ordered)
     ev.doubts_borne_out = sum(s.doubts_borne_out for s in ordered)
+
+
+def _measure_clearances(ev: Evaluation, ordered: Sequence[SeedResult],
+                        clearance_mm: float) -> None:
+    """The smallest and 5th-percentile clearance of passed marks, and how many fell below
+    each run's own target (random missions draw one clearance per run)."""
     clearances = [c for s in ordered for c in s.clearances()]
     ev.min_clearance_mm = min(clearances) if clearances else None
     ev.clearance_p05_mm = percentile(clearances, 5.0)
-    # Each run against its own mission's clearance (random missions draw one per run).
     ev.clearance_below_target = sum(
         1 for s in ordered for c in s.clearances() if c < _target_of(s, clearance_mm))
+
+
+def _measure_times(ev: Evaluation, ordered: Sequence[SeedResult]) -> None:
+    """Median and longest simulated time, mean wall time per run."""
     sim_times = [s.sim_time_s for s in ordered]
     if sim_times:
         ev.sim_time_median_s = float(np.median(sim_times))
         ev.sim_time_max_s = max(sim_times)
         ev.wall_time_mean_s = float(np.mean([s.wall_time_s for s in ordered]))
+
+
+def summarise(
+    results: Sequence[SeedResult],
+    *,
+    mission: str,
+    mission_path: str,
+    clearance_mm: float,
+    min_success: float = 0.95,
+    max_time_s: float | None = None,
+    jobs: int = 1,
+    wall_total_s: float = 0.0,
+) -> Evaluation:
+    """Aggregate per-seed results (any order; sorted by seed) into an :class:`Evaluation`."""
+    ordered = sorted(results, key=lambda s: s.seed)
+    ev = Evaluation(mission=mission, mission_path=mission_path, results=ordered,
+                    clearance_mm=clearance_mm, min_success=min_success, max_time_s=max_time_s,
+                    jobs=jobs, wall_total_s=wall_total_s)
+    _count_outcomes(ev, ordered)
+    _measure_clearances(ev, ordered, clearance_mm)
+    _measure_times(ev, ordered)
     ev.failures = [s for s in ordered if not s.success]
     for s in ordered:
         problems = _incident(s, _target_of(s, clearance_mm))

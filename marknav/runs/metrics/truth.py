@@ -154,6 +154,113 @@ def _window_clearance(ts: npt.NDArray[np.float64], p: npt.NDArray[np.float64],
     return round(float(min_clearance_mm(seg, mark_xy)), 1)
 
 
+class _Crossings:
+    """The crossings of each mark's pass line by the resampled path, computed once per mark."""
+
+    def __init__(self, ts: npt.NDArray[np.float64], p: npt.NDArray[np.float64],
+                 world: worldmod.World) -> None:
+        self.ts, self.p, self.world = ts, p, world
+        self._cache: dict[int, list[_Cross]] = {}
+
+    def __call__(self, i: int) -> list[_Cross]:
+        if i not in self._cache:
+            self._cache[i] = _crossings(self.ts, self.p, self.world.marks[i].xy)
+        return self._cache[i]
+
+
+def _passed_next_first(marks: Sequence[int], crossings: _Crossings, w: int, t_prev: float,
+                       first: float) -> bool:
+    """Whether the next waypoint's mark was passed between the previous pass and ``first``.
+    (Not when the next mark is also the previous one — a figure-eight: going round the mark
+    just passed, on the way to this one, is not passing the next waypoint early.)"""
+    if w + 1 >= len(marks) or marks[w + 1] == marks[w]:
+        return False
+    if w > 0 and marks[w + 1] == marks[w - 1]:
+        return False
+    return any(t_prev < c.t < first and c.lateral_mm <= ORDER_RADIUS_MM
+               for c in crossings(marks[w + 1]))
+
+
+def _pass_times(marks: Sequence[int], crossings: _Crossings, t_start: float,
+                ) -> tuple[list[float | None], list[str]]:
+    """Each waypoint's pass time (``None``: not passed after the previous one) and its order:
+    "ok", "skipped", "before" (passed only before the previous pass) or "late" (only after the
+    next waypoint's mark was passed)."""
+    passes: list[float | None] = []
+    order: list[str] = []
+    t_prev = t_start
+    t_prev_prev = t_start
+    for w, mi in enumerate(marks):
+        # (A mark level with the previous waypoint's — a gate — is crossed at the very time of
+        # that pass; the same mark again is not.)
+        gate = w > 0 and mi != marks[w - 1]
+        after = [c for c in crossings(mi) if c.t > t_prev or (c.t == t_prev and gate)]
+        if not after:
+            passes.append(None)
+            before = any(t_prev_prev <= c.t <= t_prev and c.lateral_mm <= ORDER_RADIUS_MM
+                         for c in crossings(mi))
+            order.append("before" if before and w > 0 else "skipped")
+            continue
+        first = after[0].t
+        passes.append(first)
+        order.append("late" if _passed_next_first(marks, crossings, w, t_prev, first) else "ok")
+        t_prev_prev, t_prev = t_prev, first
+    return passes, order
+
+
+def _rival(world: worldmod.World, crossings: _Crossings, w: int, marks: Sequence[int],
+           closest: _Cross, lo: float, hi: float) -> str | None:
+    """Why the pass of waypoint ``w`` was of another mark of its colour passed closer inside
+    its window (``None``: none was). The adjacent waypoints' own marks are not rivals: their
+    passes bound the window, and a path that wiggles past the mark just passed re-crosses its
+    line just inside."""
+    mi = marks[w]
+    colour = world.marks[mi].colour
+    adjacent = {marks[k] for k in (w - 1, w + 1) if 0 <= k < len(marks)}
+    for j, other in enumerate(world.marks):
+        if j == mi or j in adjacent or other.colour != colour:
+            continue
+        rivals = [c for c in crossings(j) if lo < c.t < hi]
+        if rivals and min(c.lateral_mm for c in rivals) < closest.lateral_mm:
+            near = min(rivals, key=lambda c: c.lateral_mm)
+            return (f"passed mark {j} ({other.colour} at {other.x_mm:g}, "
+                    f"{other.y_mm:g}) at {near.lateral_mm:.0f} mm instead "
+                    f"(this one at {closest.lateral_mm:.0f} mm)")
+    return None
+
+
+def _judge(world: worldmod.World, crossings: _Crossings, w: int, marks: Sequence[int],
+           sides: Sequence[str], passes: Sequence[float | None], order: Sequence[str],
+           t_start: float, t_end: float) -> MarkTruth:
+    """Waypoint ``w``'s verdict, within the window between its neighbours' passes."""
+    mi = marks[w]
+    mark = world.marks[mi]
+    prev_t = next((x for x in reversed(passes[:w]) if x is not None), t_start)
+    next_t = next((x for x in passes[w + 1:] if x is not None), None)
+    lo, hi = prev_t, (next_t if next_t is not None else t_end)
+    clearance = _window_clearance(crossings.ts, crossings.p, mark.xy, lo, hi)
+    base = (mi, mark.x_mm, mark.y_mm)
+    t_pass = passes[w]
+    if t_pass is None:
+        verdict: Verdict = "out_of_order" if order[w] == "before" else "skipped"
+        detail = ("passed only before the previous waypoint's mark" if verdict ==
+                  "out_of_order" else "never passed")
+        return MarkTruth(*base, verdict, None, clearance, None, detail)
+    inside = [c for c in crossings(mi) if lo < c.t < hi or c.t == t_pass]
+    closest = min(inside, key=lambda c: c.lateral_mm)
+    rival = None if order[w] == "late" else _rival(world, crossings, w, marks, closest, lo, hi)
+    if order[w] == "late":
+        verdict, detail = "out_of_order", "passed only after the next waypoint's mark"
+    elif rival is not None:
+        verdict, detail = "off_course", rival
+    elif closest.side != sides[w]:
+        verdict = "wrong_side"
+        detail = f"passed on its {closest.side} at {closest.lateral_mm:.0f} mm"
+    else:
+        verdict, detail = "passed", ""
+    return MarkTruth(*base, verdict, closest.side, clearance, round(t_pass, 3), detail)
+
+
 def course_truth(
     t: Sequence[float] | npt.NDArray[np.float64],
     xy: Sequence[tuple[float, float]] | npt.NDArray[np.float64],
@@ -174,78 +281,7 @@ def course_truth(
         return [MarkTruth(i, *world.marks[i].xy, "skipped", None, None, None, "no path")
                 for i in marks]
     t_start, t_end = float(ts[0]), float(ts[-1])
-    cache: dict[int, list[_Cross]] = {}
-
-    def crossings(i: int) -> list[_Cross]:
-        if i not in cache:
-            cache[i] = _crossings(ts, p, world.marks[i].xy)
-        return cache[i]
-
-    # Pass times, in course order.
-    passes: list[float | None] = []
-    order: list[str] = []  # "ok" | "skipped" | "before" (only before the previous pass) | "late"
-    t_prev = t_start
-    t_prev_prev = t_start
-    for w, mi in enumerate(marks):
-        # (A mark level with the previous waypoint's — a gate — is crossed at the very time of
-        # that pass; the same mark again is not.)
-        after = [c for c in crossings(mi)
-                 if c.t > t_prev or (c.t == t_prev and w > 0 and mi != marks[w - 1])]
-        if not after:
-            passes.append(None)
-            before = [c for c in crossings(mi)
-                      if t_prev_prev <= c.t <= t_prev and c.lateral_mm <= ORDER_RADIUS_MM]
-            order.append("before" if before and w > 0 else "skipped")
-            continue
-        first = after[0].t
-        late = False
-        # (Not when the next mark is also the previous one — a figure-eight: going round the
-        # mark just passed, on the way to this one, is not passing the next waypoint early.)
-        if w + 1 < len(marks) and marks[w + 1] != mi and (w == 0 or marks[w + 1] != marks[w - 1]):
-            nxt = [c for c in crossings(marks[w + 1])
-                   if t_prev < c.t < first and c.lateral_mm <= ORDER_RADIUS_MM]
-            late = bool(nxt)
-        passes.append(first)
-        order.append("late" if late else "ok")
-        t_prev_prev, t_prev = t_prev, first
-
-    out: list[MarkTruth] = []
-    for w, mi in enumerate(marks):
-        mark = world.marks[mi]
-        prev_t = next((x for x in reversed(passes[:w]) if x is not None), t_start)
-        next_t = next((x for x in passes[w + 1:] if x is not None), None)
-        lo, hi = prev_t, (next_t if next_t is not None else t_end)
-        clearance = _window_clearance(ts, p, mark.xy, lo, hi)
-        base = (mi, mark.x_mm, mark.y_mm)
-        if passes[w] is None:
-            verdict: Verdict = "out_of_order" if order[w] == "before" else "skipped"
-            detail = ("passed only before the previous waypoint's mark" if verdict ==
-                      "out_of_order" else "never passed")
-            out.append(MarkTruth(*base, verdict, None, clearance, None, detail))
-            continue
-        t_pass = passes[w]
-        assert t_pass is not None
-        inside = [c for c in crossings(mi) if lo < c.t < hi or c.t == t_pass]
-        closest = min(inside, key=lambda c: c.lateral_mm)
-        side = closest.side
-        if order[w] == "late":
-            verdict, detail = "out_of_order", "passed only after the next waypoint's mark"
-        else:
-            verdict, detail = ("passed", "") if side == sides[w] else (
-                "wrong_side", f"passed on its {side} at {closest.lateral_mm:.0f} mm")
-            # The adjacent waypoints' own marks are not rivals: their passes bound the window,
-            # and a path that wiggles past the mark just passed re-crosses its line just inside.
-            adjacent = {marks[k] for k in (w - 1, w + 1) if 0 <= k < len(marks)}
-            for j, other in enumerate(world.marks):
-                if j == mi or j in adjacent or other.colour != mark.colour:
-                    continue
-                rivals = [c for c in crossings(j) if lo < c.t < hi]
-                if rivals and min(c.lateral_mm for c in rivals) < closest.lateral_mm:
-                    near = min(rivals, key=lambda c: c.lateral_mm)
-                    verdict = "off_course"
-                    detail = (f"passed mark {j} ({other.colour} at {other.x_mm:g}, "
-                              f"{other.y_mm:g}) at {near.lateral_mm:.0f} mm instead "
-                              f"(this one at {closest.lateral_mm:.0f} mm)")
-                    break
-        out.append(MarkTruth(*base, verdict, side, clearance, round(t_pass, 3), detail))
-    return out
+    crossings = _Crossings(ts, p, world)
+    passes, order = _pass_times(marks, crossings, t_start)
+    return [_judge(world, crossings, w, marks, sides, passes, order, t_start, t_end)
+            for w in range(len(marks))]
