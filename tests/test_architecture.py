@@ -138,6 +138,32 @@ def test_no_module_imports_a_layer_above_its_own() -> None:
     assert upward_imports(module_graph(PACKAGE)) == []
 
 
+#: The packages of ``runs/``, bottom to top (``docs/architecture.md``).
+RUNS_LAYERS = ("records", "metrics", "views", "loop", "evaluation", "benchmarks")
+
+
+def runs_upward_imports(graph: Mapping[str, set[str]]) -> list[str]:
+    """Every import, inside ``runs``, of a ``runs`` package above the importer's own."""
+    def rank(module: str) -> int | None:
+        parts = module.split(".")
+        if len(parts) < 4 or parts[1] != "runs":  # marknav.runs.<package>.<module>
+            return None
+        return RUNS_LAYERS.index(parts[2])
+    return [f"{m} -> {t}" for m, targets in sorted(graph.items()) for t in sorted(targets)
+            if (a := rank(m)) is not None and (b := rank(t)) is not None and b > a]
+
+
+def test_the_packages_of_runs_import_one_way() -> None:
+    graph = module_graph(PACKAGE)
+    assert {m.split(".")[2] for m in graph if m.startswith("marknav.runs.")} == set(RUNS_LAYERS)
+    assert runs_upward_imports(graph) == []
+
+
+def test_a_planted_upward_import_inside_runs_is_found() -> None:
+    graph = {"marknav.runs.records.report": {"marknav.runs.loop.run"}}
+    assert runs_upward_imports(graph) == ["marknav.runs.records.report -> marknav.runs.loop.run"]
+
+
 def test_no_import_cycles() -> None:
     assert cycles(module_graph(PACKAGE)) == []
 

@@ -26,8 +26,9 @@ DISTANCES_MM = (600.0, 1000.0, 1500.0, 2000.0)
 def run(mission_path: str, seed: int, overrides: list[str]) -> dict[str, object]:
     from marknav.missions.overrides import parse_overrides
     from marknav.missions.schema import load_mission
-    from marknav.runs.evaluation.job import SeedResult, _quiet_runs
+    from marknav.runs.evaluation.job import _quiet_runs
     from marknav.runs.loop.run import RunRequest, execute
+    from marknav.runs.records.seed_result import SeedResult
     from marknav.sim.camera_model import sim_range_law
     from marknav.vision.estimate import PowerLaw
 

@@ -66,8 +66,9 @@ class Benchmark:
 def _vision(quick: bool) -> dict[str, Any]:
     from marknav.runs.benchmarks.cost import run_cost_bench
     from marknav.runs.benchmarks.crowded import run_crowded_bench
-    from marknav.runs.benchmarks.photos import default_corpus, run_real_bench
+    from marknav.runs.benchmarks.photos import run_real_bench
     from marknav.runs.benchmarks.vision import run_vision_bench
+    from marknav.runs.metrics.photo_corpus import default_corpus
 
     result = run_vision_bench(frames=10, repeats=1) if quick else run_vision_bench()
     det, hsv = result["detector_ms_p50"], result["hsv_ms_p50"]

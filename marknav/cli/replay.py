@@ -54,8 +54,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def _screen(state: object, panel: dict[str, object], style: str) -> str:
+    from marknav.runs.records.tree_state import TreeState, legend
     from marknav.runs.views.display import status_text
-    from marknav.runs.views.treeview import TreeState, legend
 
     assert isinstance(state, TreeState)
     return "\n".join([legend(style), state.text(style=style),
@@ -94,7 +94,7 @@ def replay(args: argparse.Namespace) -> int:
 
 def _print_changes(run: object) -> None:
     from marknav.runs.records.runlog import Replay
-    from marknav.runs.views.treeview import TreeState
+    from marknav.runs.records.tree_state import TreeState
 
     assert isinstance(run, Replay)
     prev = TreeState.from_structure(run.info["tree"])

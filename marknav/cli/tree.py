@@ -38,8 +38,8 @@ def run(args: argparse.Namespace) -> int:
     from marknav.missions.examples import mission_path
     from marknav.missions.overrides import parse_overrides
     from marknav.runs.loop.checks import checked_mission
+    from marknav.runs.records.tree_state import TreeState, dot_tree, legend
     from marknav.runs.views.display import resolve_style
-    from marknav.runs.views.treeview import TreeState, dot_tree, legend
 
     if args.dot is not None:
         from marknav.core.outputs import check_output_file

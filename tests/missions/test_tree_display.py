@@ -14,7 +14,7 @@ import pytest
 from marknav.behaviours.tree import build_mission_tree
 from marknav.cli.main import main
 from marknav.missions.schema import load_mission
-from marknav.runs.views.treeview import TreeState, legend
+from marknav.runs.records.tree_state import TreeState, legend
 
 MISSIONS = Path(__file__).resolve().parents[2] / "missions"
 

@@ -9,7 +9,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from marknav.runs.benchmarks.cost import least_opencv_detector, run_cost_bench, time_functions
+from marknav.runs.benchmarks.cost import run_cost_bench, time_functions
+from marknav.vision.detect.least import least_opencv_detector
 from marknav.vision.palette import DEFAULT_PALETTE
 
 REAL = Path(__file__).resolve().parents[1] / "data" / "real"

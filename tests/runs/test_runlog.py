@@ -25,7 +25,7 @@ from marknav.missions.schema import load_mission
 from marknav.runs.loop.run import RunRequest, execute
 from marknav.runs.records import runlog
 from marknav.runs.records.runlog import Replay, read_log
-from marknav.runs.views.treeview import TreeState, _preorder
+from marknav.runs.records.tree_state import TreeState, _preorder
 
 ROOT = Path(__file__).resolve().parents[2]
 SLALOM = ROOT / "missions" / "slalom.yaml"

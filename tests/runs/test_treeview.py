@@ -7,8 +7,7 @@ import io
 import py_trees
 from py_trees.common import Status
 
-from marknav.runs.views.display import PlainView, make_view, status_text
-from marknav.runs.views.treeview import (
+from marknav.runs.records.tree_state import (
     FAILURE,
     INVALID,
     KIND_SYMBOLS,
@@ -17,6 +16,7 @@ from marknav.runs.views.treeview import (
     SUCCESS,
     TreeState,
 )
+from marknav.runs.views.display import PlainView, make_view, status_text
 
 
 def _route(n: int, done: int) -> TreeState:

@@ -10,14 +10,14 @@ import cv2
 import numpy as np
 import pytest
 
-from marknav.runs.benchmarks.photos import (
+from marknav.runs.benchmarks.photos import real_false_marks
+from marknav.runs.metrics.matching import match_marks
+from marknav.runs.metrics.photo_corpus import (
     LabelledPhoto,
     default_corpus,
     load_corpus,
-    real_false_marks,
     real_recall,
 )
-from marknav.runs.metrics.matching import match_marks
 from marknav.sim.synthetic.composite import (
     COMPOSITE_PALETTE,
     CompositeSpec,

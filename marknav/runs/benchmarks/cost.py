@@ -33,46 +33,11 @@ import numpy as np
 from marknav.runs.benchmarks.vision import plain_hough, to_hsv
 from marknav.sim.synthetic.scene import Image, bench_frames
 from marknav.vision.detect import Detector
+from marknav.vision.detect.least import least_opencv_detector
 from marknav.vision.palette import DEFAULT_PALETTE, Palette
 
 __all__ = ["least_opencv_detector", "photo_frames", "run_cost_bench", "sim_frames",
            "time_functions"]
-
-#: The smallest mark radius every detector here looks for (px, full resolution): the
-#: detector's own default minimum (:class:`~marknav.vision.detect.DetectorConfig`).
-MIN_RADIUS_PX = 5.0
-
-
-def least_opencv_detector(palette: Palette, *, min_radius_px: float = MIN_RADIUS_PX,
-                          ) -> Callable[[Image], list[tuple[str, float, float, float, float]]]:
-    """The least OpenCV detector of ``palette`` (see the module docstring): returns
-    ``[(colour, x, y, semi-major, semi-minor)]`` in full-resolution pixels."""
-    kernel = np.ones((3, 3), np.uint8)
-    min_area = 0.4 * math.pi * (0.5 * min_radius_px) ** 2
-    bounds = []
-    for c in palette:
-        spans = ((c.hue_lo, 179), (0, c.hue_hi)) if c.wraps else ((c.hue_lo, c.hue_hi),)
-        bounds.append((c.name, [(np.array([lo, c.sat_min, c.val_min], np.uint8),
-                                 np.array([hi, 255, 255], np.uint8)) for lo, hi in spans]))
-
-    def detect(image: Image) -> list[tuple[str, float, float, float, float]]:
-        h, w = image.shape[:2]
-        small = cv2.resize(image, (w // 2, h // 2), interpolation=cv2.INTER_AREA)
-        hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
-        found = []
-        for name, spans in bounds:
-            mask = cv2.inRange(hsv, spans[0][0], spans[0][1])
-            for lo, hi in spans[1:]:
-                mask = cv2.bitwise_or(mask, cv2.inRange(hsv, lo, hi))
-            mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, kernel)
-            contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
-            for contour in contours:
-                if len(contour) >= 5 and cv2.contourArea(contour) >= min_area:
-                    (x, y), (a, b), _ = cv2.fitEllipse(contour)
-                    found.append((name, 2.0 * x + 0.5, 2.0 * y + 0.5, max(a, b), min(a, b)))
-        return found
-
-    return detect
 
 
 def photo_frames(folder: str | Path, long_side: int = 640) -> list[Image]:

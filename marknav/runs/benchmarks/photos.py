@@ -15,11 +15,10 @@ run on one core, for the labelled photographs and the composited frames
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -33,10 +32,18 @@ from marknav.missions.mission_detector import (
 )
 from marknav.runs.benchmarks.vision import plain_hough, to_hsv
 from marknav.runs.metrics.matching import match_marks
+from marknav.runs.metrics.photo_corpus import (
+    Label,
+    LabelledPhoto,
+    default_corpus,
+    hit,
+    load_corpus,
+    real_recall,
+)
 from marknav.sim.synthetic.composite import COMPOSITE_PALETTE, composite_frames, load_photos
 from marknav.sim.synthetic.scene import Image
-from marknav.vision.detect import Detector, DetectorConfig, Mark
-from marknav.vision.palette import ColourRange, Palette
+from marknav.vision.detect import Detector, DetectorConfig
+from marknav.vision.palette import Palette
 
 __all__ = [
     "CAMERA",
@@ -49,76 +56,6 @@ __all__ = [
     "real_recall",
     "run_real_bench",
 ]
-
-
-@dataclass(frozen=True)
-class Label:
-    colour: str
-    x: float
-    y: float
-    radius: float
-
-
-@dataclass(frozen=True)
-class LabelledPhoto:
-    name: str
-    image: Image
-    natural: bool
-    marks: tuple[Label, ...]
-    ignore: tuple[Label, ...]
-
-
-def default_corpus() -> Path | None:
-    """The source tree's ``tests/data`` when it exists (an editable install), else None."""
-    here = Path(__file__).resolve().parents[3] / "tests" / "data"
-    return here if (here / "labels.json").is_file() else None
-
-
-def _palette(entries: Sequence[dict[str, Any]]) -> Palette:
-    return tuple(ColourRange(e["name"], int(e["hue_lo"]), int(e["hue_hi"])) for e in entries)
-
-
-def load_corpus(folder: str | Path) -> tuple[list[LabelledPhoto], Palette, Palette]:
-    """The labelled photographs of ``folder``, the palette their labels use and the
-    red/green/blue palette false marks are counted with."""
-    root = Path(folder)
-    doc = json.loads((root / "labels.json").read_text(encoding="utf-8"))
-    photos: list[LabelledPhoto] = []
-    for name, entry in sorted(doc["images"].items()):
-        image = cv2.imread(str(root / name), cv2.IMREAD_COLOR)
-        if image is None:
-            raise ValueError(f"{root / 'labels.json'}: images.{name}: cannot read {root / name}")
-
-        def labels(key: str, entry: dict[str, Any] = entry) -> tuple[Label, ...]:
-            return tuple(Label(m["colour"], float(m["x"]), float(m["y"]), float(m["radius"]))
-                         for m in entry.get(key, []))
-
-        photos.append(LabelledPhoto(name, np.asarray(image, np.uint8), bool(entry["natural"]),
-                                    labels("marks"), labels("ignore")))
-    return photos, _palette(doc["palette"]), _palette(doc["negative_palette"])
-
-
-def _hit(label: Label, mark: Mark, *, colour: bool = True) -> bool:
-    return (not colour or mark.colour == label.colour) and \
-        math.hypot(mark.x - label.x, mark.y - label.y) <= 0.2 * label.radius and \
-        abs(mark.radius - label.radius) <= 0.15 * label.radius
-
-
-def real_recall(photos: Sequence[LabelledPhoto], palette: Palette) -> dict[str, Any]:
-    """Labelled marks found (colour, centre within 0.2 r, radius within 15 %)."""
-    detector = Detector(palette)
-    found = total = 0
-    missed: list[str] = []
-    for photo in photos:
-        marks = detector.detect(photo.image)
-        for label in photo.marks:
-            total += 1
-            if any(_hit(label, m) for m in marks):
-                found += 1
-            else:
-                missed.append(f"{photo.name}:{label.colour}@{label.x:.0f},{label.y:.0f}")
-    return {"labelled": total, "found": found,
-            "recall": round(found / total, 4) if total else 1.0, "missed": missed}
 
 
 def _resized(image: Image, long_side: int) -> tuple[Image, float]:
@@ -168,7 +105,7 @@ def real_false_marks(photos: Sequence[LabelledPhoto], palette: Palette, long_sid
         known = [Label(lab.colour, lab.x * s, lab.y * s, lab.radius * s)
                  for lab in photo.marks + photo.ignore]
         n = sum(1 for m in detectors[(h, w)].detect(image)
-                if not any(_hit(lab, m, colour=False) or
+                if not any(hit(lab, m, colour=False) or
                            math.hypot(m.x - lab.x, m.y - lab.y) < lab.radius for lab in known))
         false += n
         if n:

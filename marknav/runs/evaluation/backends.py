@@ -1,10 +1,11 @@
 """Where the runs of an evaluation execute: this process, a pool of local worker processes, or
 an existing Dask cluster (issue 16).
 
-A job is ``(mission spec, seed)``; every backend runs :func:`marknav.runs.evaluation.job.run_seed`
-on it and hands each :class:`~marknav.runs.evaluation.job.SeedResult` to ``on_result`` as soon as
-it arrives (in completion order; the summary sorts by seed). A run is deterministic for its
-seed, so the backend changes the wall time and nothing else.
+A job is ``(mission spec, seed)``; every backend runs
+:func:`marknav.runs.evaluation.job.run_seed` on it and hands each
+:class:`~marknav.runs.records.seed_result.SeedResult` to ``on_result`` as soon as it arrives
+(in completion order; the summary sorts by seed). A run is deterministic for its seed, so the
+backend changes the wall time and nothing else.
 
 Local pool (``--jobs J``), the lifetime rules of issue 15 item 9:
 

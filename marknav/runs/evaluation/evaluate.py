@@ -29,7 +29,7 @@ from marknav.runs.evaluation.accuracy import (
     position_accuracy,
 )
 from marknav.runs.evaluation.backends import Job, run_jobs
-from marknav.runs.evaluation.job import RANDOM, SeedResult, WaypointTruth, replay_command, run_seed
+from marknav.runs.evaluation.job import run_seed
 from marknav.runs.metrics.statistics import (
     CLEARANCE_TOLERANCE_MM,
     Evaluation,
@@ -38,6 +38,7 @@ from marknav.runs.metrics.statistics import (
     summarise,
     wilson_interval,
 )
+from marknav.runs.records.seed_result import RANDOM, SeedResult, WaypointTruth, replay_command
 
 __all__ = [
     "ACCURACY_GRIDS",

@@ -37,7 +37,7 @@ from marknav.core.yamlio import load_yaml_text
 from marknav.missions.schema import Mission, parse_mission
 from marknav.sim import world as worldmod
 
-__all__ = ["PALETTE", "RANDOM", "RandomMission", "random_mission", "replay_command",
+__all__ = ["PALETTE", "RANDOM", "RandomMission", "random_mission",
            "write_random_mission"]
 
 Side = Literal["left", "right"]
@@ -230,12 +230,3 @@ def write_random_mission(seed: int, out_dir: str | Path) -> tuple[Path, Path]:
     return mission_path, world_path
 
 
-def replay_command(seed: int, max_time_s: float | None = None) -> str:
-    """The commands that rebuild random mission ``seed`` and run it exactly as the evaluation
-    did."""
-    out = f"runs/random-{seed}"
-    cmd = f"marknav random-mission --seed {seed} --out {out} && marknav run {out}/mission.yaml " \
-          f"--seed {seed}"
-    if max_time_s is not None:
-        cmd += f" --max-time {max_time_s:g}"
-    return cmd

@@ -32,7 +32,7 @@ match no mark (nor an ignored object); the range error is |h_true / h_found − 
 semi-axis (range ∝ 1/h, :func:`marknav.vision.estimate.estimate_disc`).
 
 **Ablation**: the detector with one stage switched off at a time (its config flag), and the
-least OpenCV detector (:func:`marknav.runs.benchmarks.cost.least_opencv_detector`) as the floor; per
+least OpenCV detector (:func:`marknav.vision.detect.least.least_opencv_detector`) as the floor; per
 variant recall, false marks per frame, range error p95 and cost (ms, p50) on the held-out half.
 """
 
@@ -126,7 +126,7 @@ def _near(t: Truth, m: Mark | tuple[str, float, float, float, float]) -> bool:
 
 
 def _real(root: Path) -> list[Frame]:
-    from marknav.runs.benchmarks.photos import load_corpus
+    from marknav.runs.metrics.photo_corpus import load_corpus
 
     photos, palette, negative = load_corpus(root)
     out = []
@@ -345,7 +345,7 @@ def score(frames: Sequence[Frame], make: Callable[[Palette], Detect]) -> dict[st
 def holdout_report(root: str | Path, *, ablate: bool = True, **sizes: int) -> dict[str, Any]:
     """The detector on both halves of every corpus, and (``ablate``) the ablation table on the
     held-out half (see the module docstring)."""
-    from marknav.runs.benchmarks.cost import least_opencv_detector
+    from marknav.vision.detect.least import least_opencv_detector
 
     previous = cv2.getNumThreads()
     cv2.setNumThreads(1)

@@ -32,8 +32,8 @@ from typing import Any
 
 import numpy as np
 
-from marknav.runs.evaluation.job import RANDOM, SeedResult, replay_command
 from marknav.runs.records.report import PASSED_OUTCOMES, SUCCESS, reached
+from marknav.runs.records.seed_result import RANDOM, SeedResult, replay_command
 
 __all__ = [
     "CLEARANCE_TOLERANCE_MM",

@@ -45,7 +45,7 @@ from marknav.core import signals
 from marknav.core.errors import InputError
 from marknav.core.inputfile import MAX_LOG_BYTES, read_bytes, stat_path
 from marknav.runs.records.report import EventLog, RunReport
-from marknav.runs.views.treeview import SUCCESS, TreeState
+from marknav.runs.records.tree_state import SUCCESS, TreeState
 
 log = logging.getLogger(__name__)
 

@@ -1,7 +1,7 @@
 """The view of a running (or replayed) tree: in place on a terminal, change-only text otherwise.
 
 :class:`LiveView` (stdout is a terminal) redraws one screen in place with rich: a legend, the
-compact tree (:mod:`~marknav.runs.views.treeview`: finished waypoints folded to one line, the
+compact tree (:mod:`~marknav.runs.records.tree_state`: finished waypoints folded to one line, the
 running branch open, at most ~25 rows) and a status panel refreshed every tick — time, target,
 range and bearing, wheel speeds, safety state, marks in view, camera rate, overruns. Log
 messages are printed above it while it runs.
@@ -9,7 +9,7 @@ messages are printed above it while it runs.
 :class:`PlainView` (pipes, CI, log files) prints the tree only when a node's status changes,
 with one status line under it.
 
-Both take the :class:`~marknav.runs.views.treeview.TreeState` and the panel figures the run
+Both take the :class:`~marknav.runs.records.tree_state.TreeState` and the panel figures the run
 recorder captured, so ``marknav replay`` draws the same screens from a run log.
 """
 
@@ -19,7 +19,7 @@ import logging
 import time
 from typing import Any, TextIO
 
-from marknav.runs.views.treeview import STATUS_STYLE, TreeState, legend
+from marknav.runs.records.tree_state import STATUS_STYLE, TreeState, legend
 
 STYLES = ("auto", "ascii", "unicode", "none")
 #: The tree's share of the screen (rows), whatever the terminal's height.

@@ -32,8 +32,8 @@ from typing import Any
 
 from marknav.core.errors import InputError
 from marknav.core.inputfile import MAX_IMAGE_BYTES, read_bytes
+from marknav.runs.records.tree_state import TreeState
 from marknav.runs.views.display import status_text
-from marknav.runs.views.treeview import TreeState
 
 log = logging.getLogger(__name__)
 
