@@ -229,7 +229,7 @@ def _add(files: Files, config: MkDocsConfig, uri: str, content: str) -> None:
 
 def on_files(files: Files, config: MkDocsConfig) -> Files:
     from marknav.missions.schema import mission_json_schema
-    from marknav.sim.world_schema import world_json_schema
+    from marknav.sim.world.json_schema import world_json_schema
 
     mission = mission_json_schema(plugins=[])
     world = world_json_schema()

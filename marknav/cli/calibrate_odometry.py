@@ -174,9 +174,9 @@ def _environment(args: argparse.Namespace, mission: Any) -> tuple[Any, Any]:
         driver.connect()
         return DriverEnvironment(driver), None
     from marknav.runs.loop.sim_environment import SimEnvironment
-    from marknav.sim import world as worldmod
+    from marknav.sim.world.schema import World, load_world
 
-    world = worldmod.load_world(args.world) if args.world is not None else worldmod.World()
+    world = load_world(args.world) if args.world is not None else World()
     env = SimEnvironment(
         world, mission.palette(), model=mission.robot.model, seed=args.seed,
         robot_radius_mm=mission.robot.radius_mm,

@@ -217,7 +217,7 @@ class Sim(BaseModel):
     @field_validator("conditions")
     @classmethod
     def _known_conditions(cls, value: dict[str, Any]) -> dict[str, Any]:
-        from marknav.sim.world import Conditions
+        from marknav.sim.world.schema import Conditions
 
         try:
             Conditions.model_validate(value)

@@ -22,7 +22,7 @@ from marknav.core.compiled import compiled_ieee
 
 if TYPE_CHECKING:
     from marknav.planning.kinematics import Pose
-    from marknav.sim.world import World
+    from marknav.sim.world.schema import World
 
 
 class CameraConfig(Protocol):

@@ -60,7 +60,7 @@ def sim_frames(n: int = 24, *, seed: int = 0) -> list[Image]:
     randomised slalom worlds (conditions, yaws, clutter), from the start pose forward."""
     from marknav.planning.kinematics import Pose
     from marknav.sim.builtin_camera import CameraConfig, render
-    from marknav.sim.world import generate_world
+    from marknav.sim.world.generate import generate_world
 
     rng = np.random.default_rng([seed, 0xF4A3E])
     frames: list[Image] = []

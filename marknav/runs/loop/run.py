@@ -101,23 +101,25 @@ def _world_for(mission: Mission, req: RunRequest, seed: int) -> Any:
 
 
 def _base_world(mission: Mission, req: RunRequest, seed: int) -> Any:
-    from marknav.sim import world as worldmod
+    from marknav.sim.world.course import check_against_palette, check_course
+    from marknav.sim.world.generate import generate_world
+    from marknav.sim.world.schema import load_world
 
     if req.world_model is not None:
         world = req.world_model
-        worldmod.check_against_palette(world, mission.palette())
-        worldmod.check_course(world, mission.route)
+        check_against_palette(world, mission.palette())
+        check_course(world, mission.route)
         return world.with_mark_radius(mission.marks.radius_mm)
     path = None if req.generate_world else req.world
     if (path is None and not req.generate_world and mission.sim is not None
             and mission.sim.world is not None):
         path = str(mission.sim.world)
     if path is not None:
-        world = worldmod.load_world(path)
-        worldmod.check_against_palette(world, mission.palette(), path)
-        worldmod.check_course(world, mission.route, path)
+        world = load_world(path)
+        check_against_palette(world, mission.palette(), path)
+        check_course(world, mission.route, path)
     else:
-        world = worldmod.generate_world(
+        world = generate_world(
             mission.route, seed=seed, clearance_mm=mission.navigation.clearance_mm,
             radius_mm=mission.marks.radius_mm,
             conditions="randomised" if req.randomise else "default",

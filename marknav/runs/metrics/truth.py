@@ -44,7 +44,7 @@ import numpy as np
 import numpy.typing as npt
 
 from marknav.runs.metrics.passes import min_clearance_mm, pass_crossings
-from marknav.sim import world as worldmod
+from marknav.sim.world.schema import World
 
 __all__ = [
     "PASSED",
@@ -264,7 +264,7 @@ def _judge(world: worldmod.World, crossings: _Crossings, w: int, marks: Sequence
 def course_truth(
     t: Sequence[float] | npt.NDArray[np.float64],
     xy: Sequence[tuple[float, float]] | npt.NDArray[np.float64],
-    world: worldmod.World,
+    world: World,
     route: Sequence[str],
     sides: Sequence[str],
     course: Sequence[int] | None = None,

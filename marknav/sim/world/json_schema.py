@@ -1,7 +1,7 @@
 """The JSON Schema of simulator world files (``marknav schema --world``).
 
-Generated from :class:`marknav.sim.world.World` and its sections each time, so a field added to
-the model is in the schema at once. Descriptions come from the model itself (a ``Field``'s
+Generated from :class:`marknav.sim.world.schema.World` and its sections each time, so a field
+added to the model is in the schema at once. Descriptions come from the model itself (a ``Field``'s
 ``description``, or a ``- ``key``: text`` line of a section's docstring, as ``Conditions`` has),
 else from :data:`DESCRIPTIONS` below; the units are in the key names (``_mm``, ``_deg``).
 """
@@ -11,7 +11,7 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from marknav.sim import world as worldmod
+from marknav.sim.world import schema as worldmod
 
 #: Descriptions of world keys whose model field carries none, by ``Section.key``.
 DESCRIPTIONS: dict[str, str] = {
