@@ -5,7 +5,7 @@ from the CLI) — never another exception, never a traceback. Time and memory ar
 loaders' own limits (file size, YAML depth and expansion, header-claimed image size), which the
 generated inputs probe: deep nesting, alias chains, huge claimed sizes, long cells, control
 characters. CI runs few examples (``MARKNAV_FUZZ_EXAMPLES``, default 20 per test); set it higher
-for a longer hunt, e.g. ``MARKNAV_FUZZ_EXAMPLES=2000 pytest tests/test_fuzz_loaders.py``.
+for a longer hunt, e.g. ``MARKNAV_FUZZ_EXAMPLES=2000 pytest tests/core/test_fuzz_loaders.py``.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from marknav.sim.world import load_world
 from marknav.vision.calibrate import fit_table
 from marknav.vision.imagefile import MAX_IMAGE_PIXELS, read_image
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SLALOM = (ROOT / "missions" / "slalom.yaml").read_text(encoding="utf-8")
 WORLD = (ROOT / "missions" / "worlds" / "slalom-world.yaml").read_text(encoding="utf-8")
 

@@ -12,7 +12,7 @@ import numpy as np
 from marknav.runs.benchmarks.cost import least_opencv_detector, run_cost_bench, time_functions
 from marknav.vision.palette import DEFAULT_PALETTE
 
-REAL = Path(__file__).resolve().parents[1] / "data" / "real"
+REAL = Path(__file__).resolve().parents[2] / "data" / "real"
 
 
 def test_the_least_detector_finds_discs_of_each_colour_including_wrapping_red() -> None:

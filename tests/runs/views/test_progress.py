@@ -16,7 +16,7 @@ from marknav.runs.evaluation import evaluate as evaluate_module
 from marknav.runs.evaluation.evaluate import EvaluationStopped, SeedResult, evaluate
 from marknav.runs.views.progress import Progress, slow_status
 
-SLALOM = Path(__file__).resolve().parents[2] / "missions" / "slalom.yaml"
+SLALOM = Path(__file__).resolve().parents[3] / "missions" / "slalom.yaml"
 
 
 class Clock:

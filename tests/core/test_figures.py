@@ -25,7 +25,7 @@ from matplotlib.quiver import Quiver  # noqa: E402
 
 from marknav.cli.main import main  # noqa: E402
 
-DATA = Path(__file__).resolve().parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 LEFT = sorted(str(p) for p in (DATA / "opencv-left").glob("left*.jpg"))
 
 
