@@ -6,8 +6,9 @@ from __future__ import annotations
 import io
 import json
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import pytest
 
@@ -16,7 +17,7 @@ from marknav.runs.evaluation import evaluate as evaluate_module
 from marknav.runs.evaluation.evaluate import EvaluationStopped, SeedResult, evaluate
 from marknav.runs.views.progress import Progress, slow_status
 
-SLALOM = Path(__file__).resolve().parents[2] / "missions" / "slalom.yaml"
+SLALOM = Path(__file__).resolve().parents[3] / "missions" / "slalom.yaml"
 
 
 class Clock:
@@ -47,13 +48,26 @@ def test_piped_progress_writes_a_line_at_start_every_period_and_at_the_end() -> 
     ]
 
 
+def _lines_within(out: io.StringIO, n: int, timeout_s: float = 10.0) -> list[str]:
+    """``out``'s lines once there are ``n`` (the ticker thread writes them; the timeout is a
+    bound on a stuck thread, not a measurement)."""
+    deadline = time.monotonic() + timeout_s
+    while len(out.getvalue().splitlines()) < n and time.monotonic() < deadline:
+        time.sleep(0.005)
+    return out.getvalue().splitlines()
+
+
 def test_piped_progress_goes_on_when_no_step_finishes() -> None:
-    out = io.StringIO()
-    with Progress("tune slalom", out, total=3, every_s=0.05, terminal=False):
-        time.sleep(0.4)  # no step: a silent pipe looks hung
-    lines = out.getvalue().splitlines()
-    assert len(lines) >= 4
-    assert all(line.startswith("tune slalom: 0/3 done, ") for line in lines)
+    out, clock = io.StringIO(), Clock()
+    with Progress("tune slalom", out, total=3, every_s=0.5, terminal=False, clock=clock):
+        assert _lines_within(out, 1) == ["tune slalom: 0/3 done, 0:00 elapsed, ETA —"]
+        for _ in range(3):  # no step finishes: a silent pipe looks hung, so the ticker writes
+            clock.t += 30.0
+            _lines_within(out, len(out.getvalue().splitlines()) + 1)
+    assert out.getvalue().splitlines() == [
+        f"tune slalom: 0/3 done, {elapsed} elapsed, ETA —"
+        for elapsed in ("0:00", "0:30", "1:00", "1:30", "1:30")  # the last one: finish()
+    ]
 
 
 def test_a_resumed_count_is_not_in_the_pace() -> None:
@@ -66,13 +80,42 @@ def test_a_resumed_count_is_not_in_the_pace() -> None:
     progress.finish()
 
 
+class ManualTimer:
+    """:class:`threading.Timer` as ``slow_status`` uses it, fired by the test: "``after_s``
+    has passed" happens when the test says so."""
+
+    made: ClassVar[list[ManualTimer]] = []
+
+    def __init__(self, delay_s: float, function: Callable[[], None]) -> None:
+        self.delay_s, self.function = delay_s, function
+        self.daemon = False
+        self.started = self.cancelled = False
+        ManualTimer.made.append(self)
+
+    def start(self) -> None:
+        self.started = True
+
+    def cancel(self) -> None:
+        self.cancelled = True
+
+    def fire(self) -> None:  # even once cancelled: a real timer can be firing as it is
+        self.function()
+
+
 def test_slow_status_shows_only_for_a_slow_block() -> None:
     out = io.StringIO()
-    with slow_status("preparing the detector…", out, after_s=0.5, terminal=False):
-        pass
+    ManualTimer.made.clear()
+    with slow_status("preparing the detector…", out, after_s=0.5, terminal=False,
+                     make_timer=ManualTimer):
+        pass  # a fast block: over before its timer fires
+    (fast,) = ManualTimer.made
+    assert (fast.delay_s, fast.started, fast.daemon, fast.cancelled) == (0.5, True, True, True)
+    fast.fire()  # firing late (as the block ended) shows nothing
     assert out.getvalue() == ""
-    with slow_status("preparing the detector…", out, after_s=0.02, terminal=False):
-        time.sleep(0.3)
+    with slow_status("preparing the detector…", out, after_s=0.02, terminal=False,
+                     make_timer=ManualTimer):
+        ManualTimer.made[-1].fire()  # a slow block: still running when its timer fires
+        assert out.getvalue() == "preparing the detector…\n"
     assert out.getvalue() == "preparing the detector…\n"
 
 

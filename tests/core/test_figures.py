@@ -25,7 +25,7 @@ from matplotlib.quiver import Quiver  # noqa: E402
 
 from marknav.cli.main import main  # noqa: E402
 
-DATA = Path(__file__).resolve().parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 LEFT = sorted(str(p) for p in (DATA / "opencv-left").glob("left*.jpg"))
 
 
@@ -187,7 +187,37 @@ def test_tune_plot(figures: list[Any], tmp_path: Path) -> None:
               Param("navigation.bypass_distance_mm", 600, 1000, 50)]
     out = tmp_path / "tune.png"
     _one(figures, "tune --plot", lambda: plot_trials(result, params, out))
-    assert out.stat().st_size > 10_000
+    fig = figures[0]
+    assert fig._suptitle.get_text() == "marknav tune missions/slalom.yaml: 20 trials"
+    numbers = [t.number for t in trials]
+    rates = [100 * t.success_rate for t in trials]
+    times = [t.median_time_s for t in trials]
+    lines = {ln.get_label(): ln for ax in fig.axes for ln in ax.lines}
+    # left: each trial's success rate and median time, and the best value's time so far
+    assert list(lines["success %"].get_xdata()) == numbers
+    assert list(lines["success %"].get_ydata()) == rates
+    assert list(lines["median time"].get_ydata()) == times
+    best_so_far = [min(trials[: k + 1], key=lambda t: t.value).median_time_s
+                   for k in range(len(trials))]
+    assert list(lines["median time of the best so far"].get_ydata()) == best_so_far
+    # right: every trial at its two parameters, coloured by its success rate; the best starred
+    (right,) = [ax for ax in fig.axes if ax.get_xlabel().startswith("navigation.clearance_mm")]
+    assert right.get_ylabel().startswith("navigation.bypass_distance_mm")
+    trials_dots, star = right.collections
+    assert np.asarray(trials_dots.get_offsets()).tolist() == [
+        [t.params["navigation.clearance_mm"], t.params["navigation.bypass_distance_mm"]]
+        for t in trials]
+    assert list(trials_dots.get_array()) == rates
+    assert trials_dots.get_clim() == (0, 100)
+    assert np.asarray(star.get_offsets()).tolist() == [
+        [best.params["navigation.clearance_mm"], best.params["navigation.bypass_distance_mm"]]]
+    assert star.get_label() == f"best (trial {best.number})"
+    # and the file has them drawn: the success dots' green and the time's blue are in it
+    image = plt.imread(out)[..., :3]
+    assert min(image.shape[:2]) > 300
+    for colour in ("tab:green", "tab:blue"):
+        rgb = np.asarray(matplotlib.colors.to_rgb(colour))
+        assert int((np.abs(image - rgb).max(axis=2) < 0.05).sum()) > 50, colour
 
 
 def test_the_check_catches_a_legend_over_data(figures: list[Any]) -> None:

@@ -27,7 +27,7 @@ from marknav.runs.records import runlog
 from marknav.runs.records.runlog import Replay, read_log
 from marknav.runs.records.tree_state import TreeState, _preorder
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 SLALOM = ROOT / "missions" / "slalom.yaml"
 
 

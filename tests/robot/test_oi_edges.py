@@ -12,7 +12,7 @@ from marknav.robot.oi import Model, Opcode, StreamParser
 
 C1, C2 = Model.CREATE1, Model.CREATE2
 
-# bumps left+right, distance -12, angle 90, mode Safe: packets 7, 19, 20, 35 (as test_stream.py)
+# bumps left+right, distance -12, angle 90, mode Safe: packets 7, 19, 20, 35 (as test_oi_stream.py)
 SPEC_FRAME = bytes([19, 10, 7, 3, 19, 255, 244, 20, 0, 90, 35, 2, 64])
 SPEC_IDS = (7, 19, 20, 35)
 # the Create 2 spec's example: packets 29 and 13, well formed, a different list

@@ -1,6 +1,6 @@
 """The ground truth (marknav/runs/metrics/truth.py) at edges mutation testing found unasserted
 (docs/mutation.md): argument checks, an empty path, the resampling's and the report path's
-bounds. Public functions only, on synthetic paths, as tests/sim/test_truth.py."""
+bounds. Public functions only, on synthetic paths, as tests/runs/metrics/test_truth.py."""
 
 from __future__ import annotations
 

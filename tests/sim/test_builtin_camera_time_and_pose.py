@@ -11,7 +11,14 @@ from marknav.core.clock import ManualClock
 from marknav.planning.kinematics import Pose
 from marknav.sim.builtin_camera import SimCamera
 from marknav.sim.world import Conditions
-from tests.sim.test_camera import PALETTE, START, F, area_radius_and_centroid, coverage, one_mark
+from tests.sim.test_builtin_camera import (
+    PALETTE,
+    START,
+    F,
+    area_radius_and_centroid,
+    coverage,
+    one_mark,
+)
 
 
 def test_a_late_frame_is_rendered_at_and_stamped_with_its_capture_time() -> None:

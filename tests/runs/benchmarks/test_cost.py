@@ -13,7 +13,7 @@ from marknav.runs.benchmarks.cost import run_cost_bench, time_functions
 from marknav.vision.detect.least import least_opencv_detector
 from marknav.vision.palette import DEFAULT_PALETTE
 
-REAL = Path(__file__).resolve().parents[1] / "data" / "real"
+REAL = Path(__file__).resolve().parents[2] / "data" / "real"
 
 
 def test_the_least_detector_finds_discs_of_each_colour_including_wrapping_red() -> None:

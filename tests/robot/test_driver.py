@@ -2,7 +2,8 @@
 
 Lock-step tests use a ManualClock shared by the simulator and the driver with
 ``reader_thread=False``: step the simulator one 15 ms tick, then ``process_input``. They are
-deterministic. A few tests run the real reader thread against a real-time simulator.
+deterministic. The reader thread's tests step the simulator's clock too and wait for each
+frame; the real-time simulator (``createsim://?model=…``) is the one slow test's.
 """
 
 from __future__ import annotations
@@ -245,8 +246,50 @@ def test_a_calibrated_right_wheel_makes_odometry_follow_a_mismatched_robot() -> 
         r.close()
 
 
-# --- the reader thread, real time ------------------------------------------------------------
+# --- the reader thread ------------------------------------------------------------------------
 
+def test_reader_thread_against_a_simulator_on_the_tests_clock() -> None:
+    """The real reader thread, with the simulator and the safety layer on the test's
+    ManualClock: each step advances the clock one stream period and waits for that frame, so
+    the travel and the command timeout are exact, whatever the machine's load."""
+    clock = ManualClock()
+    sim = SimulatedCreate(clock=clock)
+    url = protocol_createsim.register(sim)
+    driver = CreateDriver(url, clock=clock, settle_s=0.0, first_frame_timeout_s=None)
+
+    def step(n: int = 1) -> None:
+        for _ in range(n):
+            frame = driver.frames_received
+            clock.advance(TICK)
+            driver.wait_for_sensors(5.0, after_frame=frame)  # a bound, not a measurement
+
+    try:
+        driver.connect()
+        step()
+        assert driver.wait_for_sensors(1.0).state.oi_mode is OIMode.SAFE
+        assert driver.safety_state == "ready"
+        ticks = round(0.25 / TICK)
+        for _ in range(ticks):  # a 66 Hz controller for 0.25 s
+            assert driver.drive(left=200, right=200)
+            step()
+        assert sim.pose.y == pytest.approx(200.0 * ticks * TICK)  # 51 mm
+        assert driver.pose().y == pytest.approx(sim.pose.y, abs=0.5)  # encoder counts
+        step(round(0.5 / TICK))  # no command for longer than command_timeout_s
+        assert driver.safety_state == "ready"
+        assert sim.wheel_speeds.left == sim.wheel_speeds.right == 0.0
+        assert driver.safety_events[-1].event == "command_timeout"
+        still = driver.pose().y
+        assert still == pytest.approx(sim.pose.y, abs=0.5)
+        step(round(0.1 / TICK))
+        assert driver.pose().y == still
+        assert driver.parser.bad_frames == 0
+        assert driver.frames_received == 1 + ticks + round(0.5 / TICK) + round(0.1 / TICK)
+    finally:
+        driver.close()
+        protocol_createsim.unregister(url.split("//")[1])
+
+
+@pytest.mark.slow  # real time: the reader thread against createsim's wall-clock simulator
 def test_reader_thread_against_a_real_time_simulator() -> None:
     with CreateDriver("createsim://?model=create2", settle_s=0.0) as driver:
         first = driver.wait_for_sensors(1.0)

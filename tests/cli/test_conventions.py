@@ -13,7 +13,7 @@ import pytest
 
 from marknav.cli.main import main
 
-SLALOM = Path(__file__).resolve().parents[1] / "missions" / "slalom.yaml"
+SLALOM = Path(__file__).resolve().parents[2] / "missions" / "slalom.yaml"
 
 
 @pytest.mark.parametrize(("argv", "level"), [

@@ -11,7 +11,7 @@ import pytest
 from marknav.cli.main import main
 from marknav.runs.evaluation.evaluate import replay_command
 
-SLALOM = Path(__file__).resolve().parents[2] / "missions" / "slalom.yaml"
+SLALOM = Path(__file__).resolve().parents[3] / "missions" / "slalom.yaml"
 
 
 def test_a_bad_setting_exits_2_before_any_run(capsys: pytest.CaptureFixture[str]) -> None:
