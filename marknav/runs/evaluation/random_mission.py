@@ -59,8 +59,9 @@ RANDOM = "random"
 #: ``room.floor_saturation``'s 160, +8 % grain) and what the marks read (≥ 230 at the 5th
 #: percentile in the dimmest, noisiest light): with a floor of 100, a near mark standing on a wood
 #: floor or carpet of its hue merged with it and was not found.
-#: ``tests/runs/evaluation/test_random_mission.py`` measures both. The floors are for marks of full paint: a
-#: world's printed marks (``mark_saturation`` < 1) get floors scaled by the palest one's.
+#: ``tests/runs/evaluation/test_random_mission.py`` measures both. The floors are for marks of
+#: full paint: a world's printed marks (``mark_saturation`` < 1) get floors scaled by the palest
+#: one's.
 PALETTE: dict[str, tuple[tuple[int, int], int]] = {
     "red": ((166, 2), 180),
     "orange": ((3, 25), 180),
