@@ -202,12 +202,14 @@ class WheelRatioLearning:
 class RangeLawLearning:
     """The range law from the marks' radii against the distance driven toward them.
 
-    ``model`` is the law to estimate with (the prior until a fit is accepted); ``restarts``:
-    learners whose windows an accepted law that changes by more than
-    :data:`LAW_CHANGE_RESTARTS` makes stale. ``times``: the processing time of each step."""
+    ``model`` is the law to estimate with (the prior until a fit is accepted), handed to
+    ``on_law`` when a fit is; ``restarts``: learners whose windows an accepted law that changes
+    by more than :data:`LAW_CHANGE_RESTARTS` makes stale. ``times``: the processing time of each
+    step."""
 
     learner: RangeLawLearner
     restarts: Sequence[Restartable] = ()
+    on_law: Callable[[PowerLaw], None] | None = None
     model: PowerLaw = field(init=False)
     times: list[float] = field(default_factory=list)
 
@@ -239,6 +241,8 @@ class RangeLawLearning:
             return
         self.model = step.after
         self.times.append(sighting.now)
+        if self.on_law is not None:
+            self.on_law(step.after)
         if abs(step.change) > LAW_CHANGE_RESTARTS:
             for other in self.restarts:
                 other.restart()  # its window's marks were placed with the old law

@@ -77,7 +77,7 @@ from marknav.planning.kinematics import Pose, to_world_frame
 from marknav.planning.pose_history import PoseHistory
 from marknav.planning.wheel_ratio import Sensitivity, WheelRatioStep
 from marknav.robot.robot import BUMPED, WheelCalibratable
-from marknav.vision.estimate import RangeModel, estimate_disc
+from marknav.vision.estimate import PowerLaw, RangeModel, estimate_disc
 from marknav.vision.range_learning import MIN_RADIUS_FRACTION, RangeLawLearner, RangeLawStep
 from marknav.vision.sources import Frame, FrameSource
 from marknav.vision.undistort import Intrinsics, undistort_mark
@@ -338,7 +338,8 @@ class Perception(PerceptionBase):
             prior = as_power_law(self._range_model)
             if mission.camera.learn_range and prior is not None:
                 self._range = RangeLawLearning(RangeLawLearner(
-                    prior=prior, min_radius_px=MIN_RADIUS_FRACTION * mission.camera.width))
+                    prior=prior, min_radius_px=MIN_RADIUS_FRACTION * mission.camera.width),
+                    on_law=self._use_law)
                 self._range_model = prior
         if self._detector is None:
             from marknav.missions.mission_detector import mission_detector
@@ -361,6 +362,10 @@ class Perception(PerceptionBase):
         if self._range is not None:
             self._range.restarts = [self._wheels] if self._wheels is not None else []
         self.learners = [x for x in (self._horizon, self._wheels, self._range) if x is not None]
+
+    def _use_law(self, law: PowerLaw) -> None:
+        """Estimate the next frames with a newly learnt range law."""
+        self._range_model = law
 
     def _odometry(self) -> WheelCalibratable | None:
         """The robot, if wheel calibration is on and it can be calibrated."""
@@ -397,10 +402,7 @@ class Perception(PerceptionBase):
                             bumped=self.robot.safety_state == BUMPED)
         for learner in self.learners:
             learner.observe(sighting)
-        sigma = 0.0
-        if self._range is not None:
-            self._range_model = self._range.model  # the law accepted, for the next frame
-            sigma = self._range.learner.sigma[0]
+        sigma = self._range.learner.sigma[0] if self._range is not None else 0.0
         marks = tuple(m.seen for m in sighting.marks)
         info = keys.FrameInfo(index=frame.index, t=t, width=width, height=height,
                               marks=len(marks), range_sigma=sigma, latency_s=now - t)

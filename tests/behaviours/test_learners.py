@@ -205,7 +205,9 @@ class Restarts:
 def test_range_law_learning_on_an_approach(scale, restarted) -> None:
     prior = PowerLaw(scale * TRUE_LAW.a, TRUE_LAW.b)
     wheels = Restarts()
-    learning = RangeLawLearning(RangeLawLearner(prior=prior), restarts=[wheels])
+    laws: list[PowerLaw] = []
+    learning = RangeLawLearning(RangeLawLearner(prior=prior), restarts=[wheels],
+                                on_law=laws.append)
     assert learning.model == prior
     for k, y in enumerate(range(0, 1700, 12)):
         forward, left = 2600.0 - y, -150.0
@@ -217,7 +219,7 @@ def test_range_law_learning_on_an_approach(scale, restarted) -> None:
         assert steps and learning.model == steps[-1].after
         assert learning.model.distance_mm(TRUE_LAW.radius_px(1000.0)) == pytest.approx(
             1000.0, rel=0.05)
-        assert len(learning.times) == len(steps)
+        assert len(learning.times) == len(steps) and laws == [s.after for s in steps]
         assert wheels.count == sum(abs(s.change) > LAW_CHANGE_RESTARTS for s in steps) >= 1
     else:
         assert all(abs(s.change) <= LAW_CHANGE_RESTARTS for s in steps)
