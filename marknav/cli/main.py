@@ -44,6 +44,11 @@ from marknav.core.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_OK, Input
 
 log = logging.getLogger(__name__)
 
+#: The arguments that name a mission, as (command or ``None`` for every command, argument
+#: name): each is a file or a built-in example's name (``slalom``), resolved to a file here
+#: before the command runs.
+MISSION_ARGUMENTS: tuple[tuple[str | None, str], ...] = ((None, "mission"), ("palette", "check"))
+
 #: The modules that each register one sub-command, in the order ``--help`` shows them.
 COMMANDS: tuple[ModuleType, ...] = (
     run, validate, tree, evaluate, replay, examples, tune, random_mission, bench, detect,
@@ -192,6 +197,17 @@ def configure_logging(verbosity: int) -> None:
         (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbosity, 2)])
 
 
+def resolve_missions(args: argparse.Namespace) -> None:
+    """Every mission argument (:data:`MISSION_ARGUMENTS`) given as a built-in example's name
+    becomes that example's file; InputError for a name or path that is neither."""
+    from marknav.missions.examples import mission_path
+
+    for only, name in MISSION_ARGUMENTS:
+        value = getattr(args, name, None)
+        if (only is None or only == args.command) and isinstance(value, str):
+            setattr(args, name, mission_path(value))
+
+
 def main(argv: Sequence[str] | None = None, *, exiting: bool = False) -> int:
     """Run one command; ``exiting``: the process ends after it (the console entry point)."""
     from marknav.core import signals
@@ -215,6 +231,7 @@ def main(argv: Sequence[str] | None = None, *, exiting: bool = False) -> int:
 
 
 def _main(argv: Sequence[str] | None) -> int:
+    from marknav.cli.requirements import check_requirements
     from marknav.core.outputs import printable
 
     parser = build_parser()
@@ -224,6 +241,8 @@ def _main(argv: Sequence[str] | None) -> int:
         parser.print_help()
         return EXIT_BAD_INPUT
     try:
+        check_requirements(args)  # before anything runs: no wasted run, no empty run folder
+        resolve_missions(args)
         return int(args.func(args))
     except InputError as exc:  # control characters from the input are shown escaped
         text = "\n".join(printable(line) for line in str(exc).split("\n"))

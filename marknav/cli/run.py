@@ -95,6 +95,7 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from marknav.cli.requirements import MUJOCO, require
     from marknav.core.errors import InputErrors
     from marknav.core.outputs import printable
     from marknav.missions.examples import mission_path
@@ -148,6 +149,8 @@ def run(args: argparse.Namespace) -> int:
         problems = loaded_mission_problems(mission, overrides, world=world)
         if problems:
             raise InputErrors(problems)
+        if args.engine is None and mission.sim is not None and mission.sim.engine == "mujoco":
+            require(MUJOCO, "sim.engine")  # --engine was checked with the other options
         req = request()
         stage = "while preparing the detector"
         with slow_status(PREPARING, sys.stderr):
