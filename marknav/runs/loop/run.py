@@ -259,6 +259,7 @@ def execute(req: RunRequest) -> RunResult:
             max_time_s=(req.max_time_s if req.max_time_s is not None
                         else default_max_time_s(mission)),
             realtime=req.realtime, sleep=req.robot != "sim", observer=recorder,
+            visitors=[recorder.state.ticked] if recorder is not None else [],
         )
         # A simulated run is lock-step on small arrays: one OpenCV thread is as fast and
         # leaves the other core free (:mod:`marknav.core.cvthreads`).

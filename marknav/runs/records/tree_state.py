@@ -16,8 +16,15 @@ them, ASCII otherwise (and in dot files, whose fonts may lack the glyphs).
 
 The live drawing is compact: a composite that is not running is folded to one line (a finished
 waypoint shows what it ended with), the running branch is open, and runs of folded siblings are
-grouped when the tree would not fit ``max_rows``. A node that was not ticked shows no message,
-so nothing stale stays on screen.
+grouped when the tree would not fit ``max_rows``; if it still does not fit, the finished
+siblings before the running branch and the idle ones after it are folded into one line each,
+from the root down, so the running node is always on screen. An idle node shows no message.
+
+Every message on screen is current or says when it is from: :class:`TickedNodes` (a py_trees
+visitor the runner adds) sees which nodes the last tick reached, and a node it did not reach
+(``SelectTarget`` under a sequence with memory that has moved on to its next child, a finished
+waypoint) keeps its message prefixed with the time it was last ticked (``at t=9.90 s: ...``):
+its words describe that moment, not this one.
 
 :func:`dot_tree` writes Graphviz dot with node ids ``n0, n1, ...`` and the same labels as the
 text (ASCII). py_trees' ``dot_tree`` uses the names as node ids, so a ``:`` in one ("Waypoint 1:
@@ -28,11 +35,13 @@ green").
 
 from __future__ import annotations
 
+import uuid
 from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any
 
 import py_trees
+import py_trees.visitors
 from py_trees.behaviour import Behaviour
 
 RUNNING, SUCCESS, FAILURE, INVALID = "RUNNING", "SUCCESS", "FAILURE", "INVALID"
@@ -87,6 +96,28 @@ def legend(style: str = "unicode") -> str:
             f"{FOLD[style]} folded")
 
 
+class TickedNodes(py_trees.visitors.VisitorBase):
+    """The nodes the last tick reached (py_trees visits exactly the ticked ones); add it to the
+    ``BehaviourTree`` with ``add_visitor``. ``ticks`` counts the ticks it saw."""
+
+    def __init__(self) -> None:
+        super().__init__(full=False)
+        self.ids: set[uuid.UUID] = set()
+        self.ticks = 0
+
+    def initialise(self) -> None:
+        self.ids = set()
+        self.ticks += 1
+
+    def run(self, behaviour: Behaviour) -> None:
+        self.ids.add(behaviour.id)
+
+
+def dated(message: str, t: float) -> str:
+    """A message from an earlier tick, with the run time it was last current."""
+    return f"at t={t:.2f} s: {message}"
+
+
 @dataclass
 class TreeState:
     """Names, kinds and parents of a tree's nodes (pre-order), with their current status."""
@@ -100,6 +131,9 @@ class TreeState:
     #: per node: a composite with memory (run logs written before it was kept: all False)
     memory: list[bool] = field(default_factory=list)
     _nodes: list[py_trees.behaviour.Behaviour] = field(default_factory=list, repr=False)
+    #: Which nodes each tick reached (a live tree's; the runner adds it to the tree).
+    ticked: TickedNodes = field(default_factory=TickedNodes, repr=False)
+    _last_ticked: list[float | None] = field(default_factory=list, repr=False)
 
     def __post_init__(self) -> None:
         n = len(self.names)
@@ -110,6 +144,7 @@ class TreeState:
         if not self.memory:
             self.memory = [False] * n
         self.children = [[] for _ in range(n)]
+        self._last_ticked = [None] * n
         for i, p in enumerate(self.parents):
             if p >= 0:
                 self.children[p].append(i)
@@ -135,16 +170,25 @@ class TreeState:
         return cls(names=list(d["names"]), kinds=list(d["kinds"]), parents=list(d["parents"]),
                    memory=[bool(m) for m in d.get("memory", ())])
 
-    def capture(self) -> dict[str, list[str]]:
+    def capture(self, now: float | None = None) -> dict[str, list[str]]:
         """Read the live tree; return ``{index: [status, message]}`` for the nodes that changed.
 
-        An idle (INVALID) node's message is recorded as empty: it is not current.
+        An idle (INVALID) node's message is recorded as empty: it is not current. With the run
+        time ``now`` and :attr:`ticked` on the tree, the message of a node this tick did not
+        reach is :func:`dated` with the last tick that did.
         """
         changed: dict[str, list[str]] = {}
         status, message = self.status, self.message
+        reached = self.ticked.ids if now is not None and self.ticked.ticks else None
         for i, node in enumerate(self._nodes):
             st = node.status.value
             msg = node.feedback_message if st != INVALID else ""
+            if reached is not None:
+                last = self._last_ticked[i]
+                if node.id in reached:
+                    self._last_ticked[i] = now
+                elif msg and last is not None:
+                    msg = dated(msg, last)
             if st != status[i] or msg != message[i]:
                 status[i], message[i] = st, msg
                 changed[str(i)] = [st, msg]

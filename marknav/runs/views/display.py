@@ -51,8 +51,8 @@ def status_text(panel: dict[str, Any], style: str = "unicode") -> list[str]:
         target += (f"  range {panel['range_mm'] / 1000.0:.2f} m  bearing {abs(b):.0f}{deg} "
                    f"{side}" if abs(b) >= 0.5 else
                    f"  range {panel['range_mm'] / 1000.0:.2f} m  bearing 0{deg}")
-        if panel.get("seen_s_ago", 0.0) > 0.5:
-            target += f" (seen {panel['seen_s_ago']:.1f} s ago)"
+        if panel.get("seen_s_ago", 0.0) > 0.0:  # not in the newest frame
+            target += f" (out of view, seen {panel['seen_s_ago']:.2f} s ago)"
     wheels = panel.get("wheels_mm_s")
     robot = (f"wheels L {wheels[0]:+d} R {wheels[1]:+d} mm/s  " if wheels else "") + \
         f"safety {panel.get('safety', '?')}"
