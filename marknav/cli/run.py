@@ -71,8 +71,13 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                         "mujoco runs MuJoCo's physics and renderer (the 'mujoco' extra and the "
                         "system package libosmesa6)")
     p.add_argument("--seed", type=int, help="simulator seed (default: the mission's sim.seed)")
-    p.add_argument("--realtime", action="store_true",
-                   help="pace the simulator at wall-clock speed")
+    pace = p.add_mutually_exclusive_group()
+    pace.add_argument("--realtime", action="store_const", const=True, dest="realtime",
+                      help="pace the simulator at wall-clock speed (the default when the live "
+                           "view is on a terminal)")
+    pace.add_argument("--fast", action="store_const", const=False, dest="realtime",
+                      help="run the simulator as fast as it goes, also under the live view "
+                           "(the default when the output is not a terminal)")
     p.add_argument("--max-time", type=float, metavar="SECONDS",
                    help="give up after this much mission time (default 60 s + 40 s per "
                         "waypoint)")
