@@ -57,6 +57,7 @@ from marknav.behaviours.target import (
     reselect,
     with_sighting,
 )
+from marknav.core.wording import count
 from marknav.missions.camera import (
     as_power_law,
     mission_intrinsics,
@@ -417,8 +418,9 @@ class Perception(PerceptionBase):
         self.wheel_calibrations.append(step)
         fit = step.fit
         log.info("odometry: right wheel scale %.4f -> %.4f ± %.4f (fit %+.4f ± %.4f from %d "
-                 "sightings of %d marks, residual %.0f mm)", before, robot.right_wheel_scale,
-                 step.scale_sigma, fit.epsilon, fit.sigma, fit.samples, fit.marks, fit.rms_mm)
+                 "sightings of %s, residual %.0f mm)", before, robot.right_wheel_scale,
+                 step.scale_sigma, fit.epsilon, fit.sigma, fit.samples,
+                 count(fit.marks, "mark"), fit.rms_mm)
 
     def _frame_intrinsics(self, width: int, height: int) -> Intrinsics | None:
         """The intrinsics at this frame's size (scaled if the camera delivers another size than
@@ -457,9 +459,10 @@ class Perception(PerceptionBase):
             self._calibrator.reset()  # its window's marks were placed with the old law
         fit = step.fit
         log.info("range law: a %.0f b %.4f -> a %.0f b %.4f (%+.1f %% at 1 m; σ %.1f %%, "
-                 "exponent σ %.3f; %d sightings of %d marks, χ %.2f, %d outliers dropped)",
+                 "exponent σ %.3f; %d sightings of %s, χ %.2f, %d outliers dropped)",
                  step.before.a, step.before.b, step.after.a, step.after.b, 100.0 * step.change,
-                 100.0 * step.sigma_scale, step.sigma_exponent, fit.samples, fit.marks, fit.chi,
+                 100.0 * step.sigma_scale, step.sigma_exponent, fit.samples,
+                 count(fit.marks, "mark"), fit.chi,
                  fit.dropped)
 
     def learnt_range(self, times: Sequence[float | None] = ()) -> dict[str, Any] | None:

@@ -44,6 +44,15 @@ from marknav.core.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_OK, Input
 
 log = logging.getLogger(__name__)
 
+#: The first line a newcomer needs, at the top of ``marknav --help``.
+START_HERE = ("Start here: 'marknav run slalom' drives the built-in slalom course in the "
+              "simulator, no hardware needed; 'marknav examples DIR' copies the example "
+              "missions out to edit; 'marknav COMMAND --help' tells more.")
+#: Where the documentation is (the package has no published site: it is built from the source).
+DOCS = ("Documentation: the MkDocs site in the source's docs/ folder (pip install "
+        "'marknav[docs]'; mkdocs serve), first tutorial 'Your first run in the simulator'; "
+        "exit codes: 0 success, 1 the mission failed, 2 bad input, 130 interrupted.")
+
 #: The arguments that name a mission, as (command or ``None`` for every command, argument
 #: name): each is a file or a built-in example's name (``slalom``), resolved to a file here
 #: before the command runs.
@@ -75,7 +84,9 @@ def _global_options(parser: argparse.ArgumentParser, *, after_command: bool) -> 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="marknav",
-        description="Drive an iRobot Create past coloured circular marks with one camera.",
+        description=("Drive an iRobot Create past coloured circular marks with one camera. "
+                     f"{START_HERE}"),
+        epilog=DOCS,
     )
     _global_options(parser, after_command=False)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")

@@ -18,6 +18,13 @@ if TYPE_CHECKING:
     from marknav.vision.sources import Image
 
 
+#: Two colours whose ranges meet with a margin under this (hue units, OpenCV's 0..179) get a
+#: warning: after white balance, daylight against a warm lamp still moves a printed colour's
+#: hue by a few units, so a 3-unit margin (a red next to an orange) is carried across by a
+#: change of light; 5 units leave room for that shift and the hue noise of a small mark.
+WARN_MARGIN_HUE = 5.0
+
+
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "palette",
@@ -176,7 +183,7 @@ def run(args: argparse.Namespace) -> int:
         result.update(
             colours=[_colour_dict(c) for c in proposal.colours],
             gaps=[_gap_dict(g) for g in proposal.gaps],
-            warnings=list(proposal.warnings), detector=agreement,
+            warnings=[*proposal.warnings, *narrow_margins(proposal)], detector=agreement,
             yaml=yaml_block(proposal))
         out += _marks_text(frames, found, labels)
         out += _proposal_text(proposal, agreement)
@@ -244,6 +251,22 @@ def _marks_text(frames: Sequence[_Frame], found: Sequence[Sequence[RoundMark]],
     return out
 
 
+def narrow_margins(proposal: Any) -> list[str]:
+    """Warnings for colours whose ranges meet with a margin under :data:`WARN_MARGIN_HUE`
+    that the proposal itself did not warn about."""
+    out = []
+    for g in proposal.gaps:
+        pair = f"{g.below} and {g.above}"
+        if g.boundary is None or g.margin >= WARN_MARGIN_HUE or any(
+                w.startswith(pair) for w in proposal.warnings):
+            continue
+        out.append(f"{pair} meet with a margin of only {g.margin:.1f} hue units (split at "
+                   f"{g.boundary}|{(g.boundary + 1) % 180}): a change of light will carry one "
+                   "into the other (choose marks of more different colours, or teach them "
+                   "under the light the robot will see)")
+    return out
+
+
 def _proposal_text(proposal: Any, agreement: dict[str, Any]) -> list[str]:
     out = ["colours (hue in OpenCV units 0..179; a range may wrap, 170..10):"]
     for c in proposal.colours:
@@ -265,7 +288,7 @@ def _proposal_text(proposal: Any, agreement: dict[str, Any]) -> list[str]:
         share = f", pixels share {g.pixel_overlap:.0f} units" if g.pixel_overlap > 0 else ""
         out.append(f"  {g.below + ' | ' + g.above:<18} {where:<28} margins "
                    f"{g.margin_below:5.1f} / {g.margin_above:5.1f}{share}")
-    for w in proposal.warnings:
+    for w in [*proposal.warnings, *narrow_margins(proposal)]:
         out.append(f"warning: {w}")
     out.append(f"the detector with this palette: {agreement['right']} of {agreement['marks']} "
                f"marks found with their colour, {agreement['wrong']} with another, "
