@@ -10,8 +10,8 @@ Adds three pages to the site, so they can never disagree with the installed mark
   ``marknav schema --world``; raw schema ``reference/world.schema.json``.
 
 The help texts come from the parser itself (:func:`marknav.cli.main.build_parser`), formatted
-for a 100-column terminal, which is what ``python -m marknav COMMAND --help`` prints with
-``COLUMNS=100``.
+for an 80-column terminal (:data:`HELP_COLUMNS`), which is what ``python -m marknav COMMAND
+--help`` prints with ``COLUMNS=80``.
 """
 
 from __future__ import annotations
@@ -26,7 +26,9 @@ from typing import Any
 from mkdocs.config.defaults import MkDocsConfig
 from mkdocs.structure.files import File, Files
 
-HELP_COLUMNS = 100
+#: The width the help is wrapped to: Material's text column shows about 80 characters of a code
+#: block at its default font size before it scrolls sideways (100 made 198 of 532 lines scroll).
+HELP_COLUMNS = 80
 
 
 @contextmanager

@@ -1,4 +1,5 @@
-"""The copy button of a console block copies its commands only: no ``$ `` prompt, no output.
+"""The site as a reader gets it: a console block's copy button copies its commands only (no
+``$ `` prompt, no output), and nothing is loaded from another host.
 
 Material copies a block's ``innerText`` while it marks the block ``data-md-copying``;
 ``docs/stylesheets/console.css`` hides the prompt (Pygments' ``.gp``) and the output (``.go``)
@@ -96,3 +97,31 @@ def test_the_check_sees_a_prompt_that_would_be_copied() -> None:
         assert _copied(body) == "$ marknav run slalom"
     finally:
         HIDDEN.add("gp")
+
+
+def test_the_site_loads_nothing_from_another_host() -> None:
+    """No CDN: every script and stylesheet the site adds is one of its own files (no page has
+    mathematics, so no MathJax)."""
+    config = yaml.safe_load((ROOT / "mkdocs.yml").read_text(encoding="utf-8").replace(
+        "!!python/name:", ""))
+    added = [*config.get("extra_javascript", []), *config.get("extra_css", [])]
+    assert all("//" not in str(a) and (DOCS / str(a)).is_file() for a in added), added
+    for page in DOCS.rglob("*.md"):
+        text = page.read_text(encoding="utf-8")
+        assert "$$" not in text and "\\(" not in text, f"{page}: mathematics needs a renderer"
+
+
+def test_the_command_line_reference_fits_the_page() -> None:
+    """Every line of every ``--help`` block on the CLI reference page fits the text column."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("reference_hook",
+                                                  DOCS / "hooks" / "reference.py")
+    assert spec is not None and spec.loader is not None
+    hook = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(hook)
+    page = hook.cli_page()
+    blocks = re.findall(r"^```text\n(.*?)^```", page, re.S | re.M)
+    assert len(blocks) > 15  # the top-level help and every command's
+    wide = [ln for b in blocks for ln in b.splitlines() if len(ln) > hook.HELP_COLUMNS]
+    assert not wide, wide[:5]
