@@ -49,3 +49,17 @@ def test_help_starts_with_where_to_start(capsys: pytest.CaptureFixture[str]) -> 
     assert "Start here: 'marknav run slalom'" in out
     assert "'marknav examples DIR'" in out
     assert "Documentation: the MkDocs site in the source's docs/ folder" in out
+
+
+def test_run_paces_by_default_and_takes_fast_or_realtime(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from marknav.cli.main import build_parser
+
+    parser = build_parser()
+    assert parser.parse_args(["run", "slalom"]).realtime is None  # the live view decides
+    assert parser.parse_args(["run", "slalom", "--fast"]).realtime is False
+    assert parser.parse_args(["run", "slalom", "--realtime"]).realtime is True
+    with pytest.raises(SystemExit) as exc:
+        main(["run", "slalom", "--fast", "--realtime"])
+    assert exc.value.code == 2
+    assert "not allowed with argument" in capsys.readouterr().err

@@ -102,24 +102,20 @@ def test_a_tiny_screen_cuts_rows_off_the_running_branch_first() -> None:
     assert any("▶ Approach" in r for r in rows)
 
 
-def test_a_simulated_run_under_the_live_view_is_paced_unless_told(
-        monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_simulated_run_under_the_live_view_is_paced_unless_told() -> None:
     mission = load_mission(str(EXAMPLES_DIR / "slalom.yaml"))
 
     class Watching:
         def __init__(self, view: object) -> None:
             self.view = view
 
-    live = LiveView(io.StringIO(), style="ascii")
-    try:
-        plain = PlainView(io.StringIO())
-        auto = RunRequest(mission=mission, realtime=None)
-        assert paced(auto, Watching(live)) is True  # type: ignore[arg-type]
-        assert paced(auto, Watching(plain)) is False  # type: ignore[arg-type]
-        assert paced(auto, None) is False
-        fast = RunRequest(mission=mission, realtime=False)
-        assert paced(fast, Watching(live)) is False  # type: ignore[arg-type]
-        slow = RunRequest(mission=mission, realtime=True)
-        assert paced(slow, Watching(plain)) is True  # type: ignore[arg-type]
-    finally:
-        live.close()
+    live = LiveView.__new__(LiveView)  # what make_view returns on a terminal (not started)
+    plain = PlainView(io.StringIO())
+    auto = RunRequest(mission=mission, realtime=None)
+    assert paced(auto, Watching(live)) is True  # type: ignore[arg-type]
+    assert paced(auto, Watching(plain)) is False  # type: ignore[arg-type]
+    assert paced(auto, None) is False
+    fast = RunRequest(mission=mission, realtime=False)
+    assert paced(fast, Watching(live)) is False  # type: ignore[arg-type]
+    slow = RunRequest(mission=mission, realtime=True)
+    assert paced(slow, Watching(plain)) is True  # type: ignore[arg-type]
