@@ -152,7 +152,21 @@ def _default(prop: dict[str, Any], required: bool) -> str:
     return f"`{_cell(text)}`"
 
 
-def _table(model: dict[str, Any]) -> list[str]:
+def _meaning(prop: dict[str, Any], defs: dict[str, Any]) -> str:
+    """A key's description; for a key that is a section of its own and has none, the first
+    sentence of that section's."""
+    if prop.get("description"):
+        return str(prop["description"])
+    refs = [prop.get("$ref", "")] + [p.get("$ref", "") for p in prop.get("anyOf", [])]
+    for ref in refs:
+        section = defs.get(ref.rsplit("/", 1)[-1]) if ref else None
+        if section and section.get("description"):
+            first = str(section["description"]).split("\n\n")[0].split(". ")[0].rstrip(".")
+            return f"{first} (its section below)."
+    return ""
+
+
+def _table(model: dict[str, Any], defs: dict[str, Any] | None = None) -> list[str]:
     props: dict[str, Any] = model.get("properties", {})
     if not props:
         return ["(no keys)", ""]
@@ -161,16 +175,16 @@ def _table(model: dict[str, Any]) -> list[str]:
     for key, prop in props.items():
         rows.append(
             f"| `{key}` | {_cell(_type(prop))} | {_default(prop, key in required)} | "
-            f"{_cell(_limits(prop))} | {_cell(prop.get('description', ''))} |"
+            f"{_cell(_limits(prop))} | {_cell(_meaning(prop, defs or {}))} |"
         )
     return [*rows, ""]
 
 
-def _model_section(name: str, model: dict[str, Any]) -> list[str]:
+def _model_section(name: str, model: dict[str, Any], defs: dict[str, Any]) -> list[str]:
     out = [f"### {name} {{#{_anchor(name)}}}", ""]
     if model.get("description"):
         out += [model["description"], ""]
-    return out + _table(model)
+    return out + _table(model, defs)
 
 
 def _node_types(tree_node: dict[str, Any]) -> list[str]:
@@ -204,10 +218,10 @@ def schema_page(schema: dict[str, Any], *, title: str, intro: str, command: str,
     ]
     if schema.get("description"):
         out += [schema["description"], ""]
-    out += _table(schema)
+    out += _table(schema, defs)
     out += ["## Sections", ""]
     for name in sorted(defs):
-        out += _model_section(name, defs[name])
+        out += _model_section(name, defs[name], defs)
     if "TreeNode" in defs:
         node_types = _node_types(defs["TreeNode"])
         if node_types:
