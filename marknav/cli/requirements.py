@@ -83,6 +83,7 @@ OPTION_NEEDS: tuple[tuple[str | None, str, Callable[[object], bool], str, Need],
     ("run", "record", lambda v: v is not None, "--record", RERUN),
     (None, "engine", lambda v: v == "mujoco", "--engine mujoco", MUJOCO),
     ("view", "run", lambda v: True, "view", RERUN),
+    ("palette", "annotate", lambda v: v is not None, "--annotate", MATPLOTLIB),
 )
 
 
