@@ -11,6 +11,9 @@ Runs the long course in the simulator (its run log, and camera frames at
 - ``detection.png``: the camera frame saved nearest that tick, with the marks the mission's
   detector found (``marknav detect FRAME --mission long-course --annotate DIR``).
 
+- ``palette-smarties.png`` and ``palette-hues.png``: what ``marknav palette
+  tests/data/smarties.png --colours red,orange,green,blue --annotate DIR`` draws.
+
 Nothing is drawn by hand: every picture is what a command shows of that run.
 """
 
@@ -32,6 +35,9 @@ from marknav.runs.views.display import render, tree_rows
 #: The mission the screenshots show, and the waypoint (1-based) whose bypass they catch.
 MISSION = "long-course"
 WAYPOINT = 7
+#: The photograph ``marknav palette --annotate`` is shown on, and the colours taught from it.
+SMARTIES = Path(__file__).resolve().parents[1] / "tests" / "data" / "smarties.png"
+PALETTE_COLOURS = "red,orange,green,blue"
 #: Camera frames saved per second of run time: one within 0.125 s of any tick.
 FRAMES_HZ = 4
 #: Terminal sizes (columns, rows): the smallest common one and a roomy one.
@@ -102,6 +108,15 @@ def main_() -> int:
             print(f"{path}: t={replay.times[k]:.2f} s, tick {k}")
         out = args.out / "detection.png"
         print(f"{out}: {detection(replay, log, replay.times[k], out)}")
+        pictures = Path(tmp) / "palette"
+        code = main(["palette", str(SMARTIES), "--colours", PALETTE_COLOURS, "--annotate",
+                     str(pictures)])
+        if code != 0:
+            raise SystemExit(f"marknav palette failed (exit {code})")
+        for made, name in ((f"00-{SMARTIES.stem}.palette.png", "palette-smarties.png"),
+                           ("hues.png", "palette-hues.png")):
+            shutil.copyfile(pictures / made, args.out / name)
+            print(args.out / name)
     return 0
 
 
