@@ -459,11 +459,11 @@ class Perception(PerceptionBase):
             self._calibrator.reset()  # its window's marks were placed with the old law
         fit = step.fit
         log.info("range law: a %.0f b %.4f -> a %.0f b %.4f (%+.1f %% at 1 m; σ %.1f %%, "
-                 "exponent σ %.3f; %d sightings of %s, χ %.2f, %d outliers dropped)",
+                 "exponent σ %.3f; %d sightings of %s, χ %.2f, %s dropped)",
                  step.before.a, step.before.b, step.after.a, step.after.b, 100.0 * step.change,
                  100.0 * step.sigma_scale, step.sigma_exponent, fit.samples,
                  count(fit.marks, "mark"), fit.chi,
-                 fit.dropped)
+                 count(fit.dropped, "outlier"))
 
     def learnt_range(self, times: Sequence[float | None] = ()) -> dict[str, Any] | None:
         """The learnt law for the report: ``{a, b, steps, rejected, samples, started_from,
