@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
 from marknav.behaviours import keys
+from marknav.core.wording import count
 from marknav.planning.kinematics import Pose
 from marknav.planning.pose_history import PoseHistory
 from marknav.planning.wheel_ratio import Sensitivity, WheelRatioCalibrator, WheelRatioStep
@@ -194,8 +195,9 @@ class WheelRatioLearning:
         self.calibrations.append(step)
         fit = step.fit
         log.info("odometry: right wheel scale %.4f -> %.4f ± %.4f (fit %+.4f ± %.4f from %d "
-                 "sightings of %d marks, residual %.0f mm)", before, robot.right_wheel_scale,
-                 step.scale_sigma, fit.epsilon, fit.sigma, fit.samples, fit.marks, fit.rms_mm)
+                 "sightings of %s, residual %.0f mm)", before, robot.right_wheel_scale,
+                 step.scale_sigma, fit.epsilon, fit.sigma, fit.samples,
+                 count(fit.marks, "mark"), fit.rms_mm)
 
 
 @dataclass
@@ -248,7 +250,7 @@ class RangeLawLearning:
                 other.restart()  # its window's marks were placed with the old law
         fit = step.fit
         log.info("range law: a %.0f b %.4f -> a %.0f b %.4f (%+.1f %% at 1 m; σ %.1f %%, "
-                 "exponent σ %.3f; %d sightings of %d marks, χ %.2f, %d outliers dropped)",
+                 "exponent σ %.3f; %d sightings of %s, χ %.2f, %s dropped)",
                  step.before.a, step.before.b, step.after.a, step.after.b, 100.0 * step.change,
-                 100.0 * step.sigma_scale, step.sigma_exponent, fit.samples, fit.marks, fit.chi,
-                 fit.dropped)
+                 100.0 * step.sigma_scale, step.sigma_exponent, fit.samples,
+                 count(fit.marks, "mark"), fit.chi, count(fit.dropped, "outlier"))

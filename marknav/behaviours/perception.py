@@ -61,7 +61,7 @@ from marknav.behaviours.learners import (
 )
 from marknav.behaviours.target import (
     associate,
-    describe,
+    describe_target,
     excluded_passes,
     memory_gone,
     remember,
@@ -224,8 +224,8 @@ class PerceptionBase(MarknavBehaviour):
                 or "no marks"
             if len(obs.marks) > len(shown):
                 seen += f" (+{len(obs.marks) - len(shown)} more)"
-            focus = (f"; target {target.label}: {describe(sighting)}" if target is not None
-                     else "")
+            focus = (f"; target {target.label}: {describe_target(target, sighting, obs.marks)}"
+                     if target is not None else "")
             self._frame_message = f"frame {obs.frame.index}: {seen}{focus}"
         return self._frame_message or ""
 

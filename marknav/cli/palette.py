@@ -8,6 +8,7 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from marknav.core.errors import InputError, MissionFailed
@@ -16,6 +17,13 @@ if TYPE_CHECKING:
     from marknav.vision.palette import Palette
     from marknav.vision.palette_teach import RoundMark
     from marknav.vision.sources import Image
+
+
+#: Two colours whose ranges meet with a margin under this (hue units, OpenCV's 0..179) get a
+#: warning: after white balance, daylight against a warm lamp still moves a printed colour's
+#: hue by a few units, so a 3-unit margin (a red next to an orange) is carried across by a
+#: change of light; 5 units leave room for that shift and the hue noise of a small mark.
+WARN_MARGIN_HUE = 5.0
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -53,6 +61,10 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                    help="hue units a range may reach past the hues its marks showed, where no "
                         "other colour and no other saturated surface of the pictures is "
                         "(default 12)")
+    p.add_argument("--annotate", metavar="DIR", type=Path,
+                   help="write into DIR each picture with the marks found outlined in the "
+                        "colour each was given, and hues.png: every colour's hue histogram "
+                        "with its range and the margins (needs matplotlib: the plot extra)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=run)
 
@@ -125,6 +137,8 @@ def _detector_agreement(frames: Sequence[_Frame], marks_per_frame: Sequence[Sequ
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from marknav.core.outputs import printable
+    from marknav.vision.palette_pictures import margins_of
     from marknav.vision.palette_teach import (
         check_palette,
         find_round_marks,
@@ -159,6 +173,8 @@ def run(args: argparse.Namespace) -> int:
     for fr, ms in zip(frames, found, strict=True):
         out.append(f"{fr.name}: {len(ms)} round saturated mark{'s' if len(ms) != 1 else ''}")
     exit_code = 0
+    #: what --annotate draws: each mark's colour, the palette, its margins, whose it is
+    pictures: tuple[Any, ...] | None = None
     if requests is not None:
         try:
             clutter = np.mean([scene_hues(fr.image, ms)
@@ -176,10 +192,11 @@ def run(args: argparse.Namespace) -> int:
         result.update(
             colours=[_colour_dict(c) for c in proposal.colours],
             gaps=[_gap_dict(g) for g in proposal.gaps],
-            warnings=list(proposal.warnings), detector=agreement,
+            warnings=[*proposal.warnings, *narrow_margins(proposal)], detector=agreement,
             yaml=yaml_block(proposal))
         out += _marks_text(frames, found, labels)
         out += _proposal_text(proposal, agreement)
+        pictures = (labels, proposal.palette(), margins_of(proposal.gaps), "taught")
         out.append("# paste into your mission (replacing marks.colours):")
         out.append(yaml_block(proposal))
     if mission is not None:
@@ -187,6 +204,8 @@ def run(args: argparse.Namespace) -> int:
         checks, given = check_palette(marks, palette)
         labels = _split(given, found)
         agreement = _detector_agreement(frames, found, labels, palette)
+        if pictures is None:
+            pictures = (labels, palette, [], f"{args.check}'s")
         bad = sum(c.in_other + c.in_none for c in checks)
         result["check"] = {"mission": args.check, "colours": [vars(c) | {
             "other_names": list(c.other_names)} for c in checks], "detector": agreement,
@@ -194,6 +213,10 @@ def run(args: argparse.Namespace) -> int:
         out += _check_text(args.check, checks, agreement)
         if bad:
             exit_code = 1
+    if args.annotate is not None and pictures is not None:
+        written = write_pictures(args.annotate, frames, found, *pictures)
+        out.append("pictures: " + "  ".join(printable(str(p)) for p in written))
+        result["pictures"] = [str(p) for p in written]
     if args.json:
         print(json.dumps(result, indent=2))
     else:
@@ -203,6 +226,34 @@ def run(args: argparse.Namespace) -> int:
                             f"({sum(c.in_other for c in checks)} in another colour's range, "
                             f"{sum(c.in_none for c in checks)} in none)")
     return 0
+
+
+def write_pictures(folder: Path, frames: Sequence[_Frame], found: Sequence[Sequence[Any]],
+                   labels: Sequence[Sequence[str]], palette: Any,
+                   margins: Sequence[tuple[str, str, float, float]], whose: str) -> list[Path]:
+    """``--annotate``: each frame with its marks outlined, and the hue histogram; the files."""
+    import cv2
+
+    from marknav.core.outputs import safe_file_name
+    from marknav.vision.palette_pictures import hue_histogram, outline_marks
+
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create the folder: {exc.strerror or exc}",
+                         file=str(folder)) from None
+    written = []
+    for k, (fr, ms, names) in enumerate(zip(frames, found, labels, strict=True)):
+        stem = safe_file_name(Path(fr.name).stem, default="frame")
+        out = folder / f"{k:02d}-{stem}.palette.png"
+        if not cv2.imwrite(str(out), outline_marks(fr.image, ms, names, palette)):
+            raise InputError("cannot write the picture", file=str(out))
+        written.append(out)
+    hist = folder / "hues.png"
+    hue_histogram([m for ms in found for m in ms], [n for ns in labels for n in ns], palette,
+                  hist, title=f"hue of the marks' pixels and the {whose} ranges", margins=margins)
+    written.append(hist)
+    return written
 
 
 def _split(labels: list[str], found: Sequence[Sequence[Any]]) -> list[list[str]]:
@@ -244,6 +295,22 @@ def _marks_text(frames: Sequence[_Frame], found: Sequence[Sequence[RoundMark]],
     return out
 
 
+def narrow_margins(proposal: Any) -> list[str]:
+    """Warnings for colours whose ranges meet with a margin under :data:`WARN_MARGIN_HUE`
+    that the proposal itself did not warn about."""
+    out = []
+    for g in proposal.gaps:
+        pair = f"{g.below} and {g.above}"
+        if g.boundary is None or g.margin >= WARN_MARGIN_HUE or any(
+                w.startswith(pair) for w in proposal.warnings):
+            continue
+        out.append(f"{pair} meet with a margin of only {g.margin:.1f} hue units (split at "
+                   f"{g.boundary}|{(g.boundary + 1) % 180}): a change of light will carry one "
+                   "into the other (choose marks of more different colours, or teach them "
+                   "under the light the robot will see)")
+    return out
+
+
 def _proposal_text(proposal: Any, agreement: dict[str, Any]) -> list[str]:
     out = ["colours (hue in OpenCV units 0..179; a range may wrap, 170..10):"]
     for c in proposal.colours:
@@ -265,7 +332,7 @@ def _proposal_text(proposal: Any, agreement: dict[str, Any]) -> list[str]:
         share = f", pixels share {g.pixel_overlap:.0f} units" if g.pixel_overlap > 0 else ""
         out.append(f"  {g.below + ' | ' + g.above:<18} {where:<28} margins "
                    f"{g.margin_below:5.1f} / {g.margin_above:5.1f}{share}")
-    for w in proposal.warnings:
+    for w in [*proposal.warnings, *narrow_margins(proposal)]:
         out.append(f"warning: {w}")
     out.append(f"the detector with this palette: {agreement['right']} of {agreement['marks']} "
                f"marks found with their colour, {agreement['wrong']} with another, "

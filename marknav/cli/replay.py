@@ -111,7 +111,7 @@ def _interactive(run: object, style: str) -> None:
     from rich.console import Console
 
     from marknav.runs.records.runlog import Replay
-    from marknav.runs.views.display import render
+    from marknav.runs.views.display import render, tree_rows
 
     assert isinstance(run, Replay)
     console = Console()
@@ -119,9 +119,10 @@ def _interactive(run: object, style: str) -> None:
     last = len(run) - 1
     while True:
         console.clear()
+        size = console.size  # one row more than the live view's: the prompt
         console.print(render(run.state_at(k), run.ticks[k].get("panel", {}), style=style,
-                             max_rows=max(8, console.size.height - 10),
-                             title=f"replay: tick {k}/{last}"))
+                             max_rows=tree_rows(size.height - 1, size.width, style),
+                             title=f"replay: tick {k}/{last}", width=size.width))
         try:
             cmd = console.input("[dim]Enter next tick · c next change · b back · "
                                 "j T jump to time · e end · q quit[/] ").strip()

@@ -71,8 +71,13 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                         "mujoco runs MuJoCo's physics and renderer (the 'mujoco' extra and the "
                         "system package libosmesa6)")
     p.add_argument("--seed", type=int, help="simulator seed (default: the mission's sim.seed)")
-    p.add_argument("--realtime", action="store_true",
-                   help="pace the simulator at wall-clock speed")
+    pace = p.add_mutually_exclusive_group()
+    pace.add_argument("--realtime", action="store_const", const=True, dest="realtime",
+                      help="pace the simulator at wall-clock speed (the default when the live "
+                           "view is on a terminal)")
+    pace.add_argument("--fast", action="store_const", const=False, dest="realtime",
+                      help="run the simulator as fast as it goes, also under the live view "
+                           "(the default when the output is not a terminal)")
     p.add_argument("--max-time", type=float, metavar="SECONDS",
                    help="give up after this much mission time (default 60 s + 40 s per "
                         "waypoint)")
@@ -95,6 +100,7 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from marknav.cli.requirements import MUJOCO, require
     from marknav.core.errors import InputErrors
     from marknav.core.outputs import printable
     from marknav.missions.examples import mission_path
@@ -148,6 +154,8 @@ def run(args: argparse.Namespace) -> int:
         problems = loaded_mission_problems(mission, overrides, world=world)
         if problems:
             raise InputErrors(problems)
+        if args.engine is None and mission.sim is not None and mission.sim.engine == "mujoco":
+            require(MUJOCO, "sim.engine")  # --engine was checked with the other options
         req = request()
         stage = "while preparing the detector"
         with slow_status(PREPARING, sys.stderr):

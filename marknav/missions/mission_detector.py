@@ -37,6 +37,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
+from marknav.core.wording import count, signed
 from marknav.missions.schema_camera import ROBOT_TINT_LIMIT
 from marknav.missions.schema_mission import Mission
 from marknav.vision.detect import Detector, DetectorConfig, Mark
@@ -223,8 +224,9 @@ class CameraDetector:
                     f"{fit.samples} sightings), near the ±{LEARN_SPAN_DEG:g}° searched while "
                     "learning; level the camera or give camera.pitch_deg")
         if told is None or abs(told[0] - pitch) > 1.0 or abs(told[1] - rise) > 40.0:
-            return (f"camera pose learnt from {fit.samples} sightings: pitch {pitch:+.1f}°, "
-                    f"roll {roll:+.1f}°, the marks' centres {rise:+.0f} mm above the camera"
+            return (f"camera pose learnt from {count(fit.samples, 'sighting')}: pitch "
+                    f"{signed(pitch, 1)}°, roll {signed(roll, 1)}°, the marks' centres "
+                    f"{signed(rise)} mm above the camera"
                     + ("" if fit.rise_fitted else " (not yet separable from the pitch)")
                     + f"; residual {fit.rms_px:.1f} px"
                     + ("; give camera.pitch_deg (and camera.height_mm, marks.height_mm) to "

@@ -44,7 +44,10 @@ def mission_path(text: str) -> str:
     """The mission file ``text`` names: itself when it is a file (or looks like a path), else
     the built-in example of that name. A bare name that is neither raises :class:`InputError`
     listing the examples."""
-    if stat_path(text) is not None or not _is_bare_name(text):
+    if stat_path(text) is not None:
+        return text
+    if not _is_bare_name(text):
+        _refuse_example_path(text)
         return text  # the loader reports a missing path with its own message
     names = example_names()
     if text in names:
@@ -54,6 +57,18 @@ def mission_path(text: str) -> str:
     raise InputError(f"no such file, and no built-in example of that name; {hint}examples: "
                      f"{', '.join(names)} ('marknav examples DIR' copies them out to edit)",
                      file=text)
+
+
+def _refuse_example_path(text: str) -> None:
+    """A missing path whose file name is a built-in example's (``missions/slalom.yaml`` from
+    the README, typed outside the repository): InputError saying how to use the built-in one."""
+    name = Path(text.replace("\\", "/")).name
+    stem = name.rsplit(".", 1)[0] if name.endswith((".yaml", ".yml")) else None
+    if stem is None or stem not in example_names():
+        return
+    raise InputError(f"no such file; {stem} is a built-in example: give its name instead "
+                     f"('marknav run {stem}'), or copy the examples out to edit "
+                     f"('marknav examples DIR', then 'marknav run DIR/{name}')", file=text)
 
 
 def copy_examples(dest: Path) -> list[Path]:

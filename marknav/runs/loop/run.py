@@ -53,7 +53,9 @@ class RunRequest:
     events_path: Path | None = None
     plot_path: Path | None = None
     seed: int | None = None
-    realtime: bool = False
+    #: Pace a simulated clock at wall-clock speed; ``None``: when the live view is on a
+    #: terminal (a person watching), else as fast as it goes.
+    realtime: bool | None = False
     max_time_s: float | None = None
     #: Filled in by :func:`execute`: the files it wrote, and why others could not be written.
     written: list[Path] = field(default_factory=list)
@@ -260,7 +262,8 @@ def execute(req: RunRequest) -> RunResult:
             rate_hz=mission.control.rate_hz,
             max_time_s=(req.max_time_s if req.max_time_s is not None
                         else default_max_time_s(mission)),
-            realtime=req.realtime, sleep=req.robot != "sim", observer=recorder,
+            realtime=paced(req, recorder), sleep=req.robot != "sim", observer=recorder,
+            visitors=[recorder.state.ticked] if recorder is not None else [],
         )
         # A simulated run is lock-step on small arrays: one OpenCV thread is as fast and
         # leaves the other core free (:mod:`marknav.core.cvthreads`).
@@ -382,6 +385,16 @@ def _finish(req: RunRequest, mission: Mission, env: Environment | None,
             raise failure
 
 
+def paced(req: RunRequest, recorder: Recorder | None) -> bool:
+    """Whether a simulated run goes at wall-clock speed: as asked, else when the live view
+    draws it on a terminal (a 41 s mission lasts 41 s on screen, not the 3 s it computes in)."""
+    from marknav.runs.views.display import LiveView
+
+    if req.realtime is not None:
+        return req.realtime
+    return recorder is not None and isinstance(recorder.view, LiveView)
+
+
 def _recorder(req: RunRequest, root: py_trees.behaviour.Behaviour, env: Environment,
               events: EventLog) -> Recorder | None:
     """The run log's recorder, with the live view and the Rerun recording when asked for."""
@@ -394,7 +407,10 @@ def _recorder(req: RunRequest, root: py_trees.behaviour.Behaviour, env: Environm
         sinks.append(RerunSink(req.mission, getattr(env, "world", None), spawn=req.viewer,
                                path=req.record_path,
                                frames_hz=req.frames_hz or RECORD_FRAMES_HZ))
-    view = make_view(req.out, req.tree_style, title=f"marknav run {req.mission.name}")
+    title = f"marknav run {req.mission.name}"
+    if req.realtime is None and req.robot == "sim":
+        title += " · real time (--fast: full speed)"
+    view = make_view(req.out, req.tree_style, title=title)
     if view is None and not sinks and events.path is None:
         return None
     mission = req.mission

@@ -136,7 +136,7 @@ class Recorder:
         if not self._started:
             self._started = True
             self._begin(now)
-        changes = self.state.capture()
+        changes = self.state.capture(now)
         frames = self._frames(now)
         panel = self.panel(now, overruns)
         record: dict[str, Any] | None = None
@@ -199,10 +199,17 @@ class Recorder:
             if target is not None:
                 out["target"] = f"{target.label}, pass on its {target.side}"
                 s = target.sighting
-                if s is not None:
+                if s is None:
+                    out["target"] += (" (out of view, remembered)" if target.remembered
+                                      else " (not in view)")
+                else:
                     out["range_mm"] = round(s.range_mm, 0)
                     out["bearing_deg"] = round(math.degrees(s.bearing_rad), 1)
-                    out["seen_s_ago"] = round(max(0.0, now - (s.t - (self._t0 or 0.0))), 2)
+                    # as Seen? counts it: 0 when the newest frame shows it (capture times
+                    # on both sides, so the camera's latency is no age)
+                    frame_now = bb.get(keys.FRAME) if bb.exists(keys.FRAME) else None
+                    out["seen_s_ago"] = round(keys.unseen_s(s, frame_now,
+                                                            now + (self._t0 or 0.0)), 2)
         safety = getattr(robot, "safety", None)
         wheels = getattr(safety, "wheels", None)
         if wheels is not None:

@@ -64,9 +64,11 @@ def require_display(option: str) -> None:
     """The viewer is a desktop window: InputError (exit 2) on a Linux machine without one."""
     if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY")
                                                  or os.environ.get("WAYLAND_DISPLAY")):
+        save = ("save a recording with 'marknav view RUN --save FILE.rrd'" if option == "view"
+                else "save a recording with --record FILE.rrd")
         raise InputError("the Rerun viewer needs a display (neither DISPLAY nor WAYLAND_DISPLAY "
-                         "is set); save a recording with --record FILE.rrd and open it with "
-                         "'marknav view FILE.rrd' where there is one", field=option)
+                         f"is set); {save} and open it with 'marknav view FILE.rrd' where there "
+                         "is one", field=option)
 
 
 def _up(xy: Any) -> list[float]:

@@ -1,0 +1,65 @@
+"""The small points a newcomer trips on: where a calibration plot went, the viewer's hint
+without a display, the first lines of ``--help``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from marknav.cli.main import main
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+
+
+def test_calibrate_says_where_the_plot_went(tmp_path: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    pytest.importorskip("matplotlib")
+    out = tmp_path / "law.png"
+    assert main(["calibrate", str(DATA / "paper_table1.csv"), "--plot", str(out)]) == 0
+    assert f"# plot: {out}" in capsys.readouterr().out.splitlines()
+    assert out.stat().st_size > 0
+    # with --json the plot line goes to stderr: stdout stays one JSON document
+    assert main(["calibrate", str(DATA / "paper_table1.csv"), "--plot", str(out),
+                 "--json"]) == 0
+    captured = capsys.readouterr()
+    assert captured.out.lstrip().startswith("{") and "plot" not in captured.out
+    assert f"# plot: {out}" in captured.err
+
+
+def test_view_without_a_display_names_its_own_save_option(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    pytest.importorskip("rerun")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.setattr("sys.platform", "linux")
+    rrd = tmp_path / "run.rrd"
+    rrd.write_bytes(b"RRF2")
+    assert main(["view", str(rrd)]) == 2
+    err = capsys.readouterr().err
+    assert "'marknav view RUN --save FILE.rrd'" in err and "--record" not in err, err
+
+
+def test_help_starts_with_where_to_start(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["--help"])
+    assert exc.value.code == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "Start here: 'marknav run slalom'" in out
+    assert "'marknav examples DIR'" in out
+    assert "Documentation: the MkDocs site in the source's docs/ folder" in out
+
+
+def test_run_paces_by_default_and_takes_fast_or_realtime(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from marknav.cli.main import build_parser
+
+    parser = build_parser()
+    assert parser.parse_args(["run", "slalom"]).realtime is None  # the live view decides
+    assert parser.parse_args(["run", "slalom", "--fast"]).realtime is False
+    assert parser.parse_args(["run", "slalom", "--realtime"]).realtime is True
+    with pytest.raises(SystemExit) as exc:
+        main(["run", "slalom", "--fast", "--realtime"])
+    assert exc.value.code == 2
+    assert "not allowed with argument" in capsys.readouterr().err
