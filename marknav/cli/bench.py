@@ -17,6 +17,10 @@ versions) once at the top level, then a section per benchmark:
   (:func:`marknav.runs.benchmarks.suite.bench_tree`);
 - ``loop`` — a simulated mission with rendering and detection: cycle times, overruns, speed-up
   (:func:`marknav.runs.benchmarks.suite.bench_loop`);
+- ``recording`` (not part of ``all``: the ``record`` and ``foxglove`` extras) — the slalom's
+  MCAP recording: its size, and the loop's wall time, CPU time
+  and cycle time with ``--record`` and with ``--foxglove`` (a client subscribed) over without,
+  as ratios (:func:`marknav.runs.benchmarks.recording.bench_recording`);
 - ``safety`` — bump-to-stop latency, safety layer alone and through the real driver
   (:func:`marknav.runs.benchmarks.suite.bench_safety`);
 - ``render`` — ms per simulator frame against the 2 ms target
@@ -99,6 +103,13 @@ def _loop(quick: bool) -> dict[str, Any]:
     return bench_loop(max_time_s=5.0) if quick else bench_loop(max_time_s=60.0)
 
 
+def _recording(quick: bool) -> dict[str, Any]:
+    from marknav.runs.benchmarks.recording import bench_recording
+
+    return (bench_recording(max_time_s=5.0, repeats=1) if quick
+            else bench_recording(max_time_s=60.0, repeats=3))
+
+
 def _render(quick: bool) -> dict[str, Any]:
     from marknav.runs.benchmarks.render import bench_render
 
@@ -131,6 +142,9 @@ BENCHMARKS: dict[str, Benchmark] = {b.name: b for b in (
     Benchmark("tree", "µs per behaviour-tree tick (slalom, 50 waypoints), mocked perception",
               _tree),
     Benchmark("loop", "60 s simulated slalom at 20 Hz with rendering and detection", _loop),
+    Benchmark("recording", "the slalom's MCAP size; loop speed with --record and with "
+              "--foxglove over without (extras: record, foxglove; not in all)", _recording,
+              in_all=False),
     Benchmark("safety", "bump-to-stop latency: safety layer, and end to end via the driver",
               _safety),
     Benchmark("render", "ms per 640×480 simulator frame, noise and blur (target 2 ms)",

@@ -410,40 +410,32 @@ def _recorder(req: RunRequest, root: py_trees.behaviour.Behaviour, env: Environm
 
 def _ros2_recording(req: RunRequest, root: py_trees.behaviour.Behaviour,
                     env: Environment) -> Any:
-    """The MCAP recording and the live Foxglove server, when asked for (else None)."""
+    """The MCAP recording and the live Foxglove server, when asked for (else None); they start
+    (in the recording's own process) before the loop does."""
     from marknav.runs.records.mcap_recording import (
         JPEG_QUALITY,
         RECORD_HZ,
-        ChannelOutput,
         McapFile,
+        OutputSpec,
         Ros2Recording,
     )
     from marknav.runs.records.tree_state import TreeState
 
-    outputs: list[ChannelOutput] = []
-    try:
-        if req.foxglove_port is not None:
-            from marknav.runs.views.foxglove_live import FoxgloveLive
+    outputs: list[OutputSpec] = []
+    if req.foxglove_port is not None:
+        from marknav.runs.views.foxglove_live import FoxgloveLive
 
-            live = FoxgloveLive(req.foxglove_port)
-            req.foxglove_bound = live.port
-            outputs.append(live)
-        if req.record_path is not None:
-            try:
-                outputs.append(McapFile(req.record_path))
-            except OSError as exc:
-                raise InputError(f"cannot write the recording: {exc.strerror or exc}",
-                                 file=str(req.record_path), field="--record") from None
-    except BaseException:
-        for out in outputs:
-            out.close()
-        raise
+        outputs.append((FoxgloveLive, {"port": req.foxglove_port}))
+    if req.record_path is not None:
+        outputs.append((McapFile, {"path": req.record_path}))
     if not outputs:
         return None
-    return Ros2Recording(req.mission, getattr(env, "world", None), outputs,
-                         tree=TreeState.of_tree(root), record_hz=req.record_hz or RECORD_HZ,
-                         jpeg_quality=(JPEG_QUALITY if req.record_quality is None
-                                       else req.record_quality))
+    recording = Ros2Recording(
+        req.mission, getattr(env, "world", None), outputs, tree=TreeState.of_tree(root),
+        record_hz=req.record_hz or RECORD_HZ,
+        jpeg_quality=JPEG_QUALITY if req.record_quality is None else req.record_quality)
+    req.foxglove_bound = recording.port
+    return recording
 
 
 def _classify(root: py_trees.behaviour.Behaviour) -> tuple[bool, str]:

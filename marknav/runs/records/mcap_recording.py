@@ -7,8 +7,8 @@ messages (:data:`TOPICS`, docs/reference/recording.md) and hands their CDR bytes
 :class:`McapFile` (the recording, with the ``metadata.yaml`` that makes its folder a rosbag2
 bag) and, with ``--foxglove``, the live server of :mod:`marknav.runs.views.foxglove_live`.
 
-The conversion, the JPEG encoding and the writing run on a thread of their own, so the control
-loop only hands over references (and a copy of each frame kept for the recording). Units are
+The conversion, the JPEG encoding and the writing run in a process of their own, so the control
+loop only hands over the tick (and a copy of each frame kept for the recording). Units are
 ROS's (REP 103): metres, radians, seconds; frames ``world`` (the simulator's world; the start
 pose's frame on a real robot), ``odom``, ``base_link``, ``base_link_truth`` (the simulator's
 true pose), ``camera_link`` and ``camera_optical``.
@@ -20,10 +20,9 @@ import json
 import logging
 import math
 import queue
-import threading
 import time
 from collections import Counter
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
@@ -467,35 +466,80 @@ class McapFile:
         return str(yaml.safe_dump(info, sort_keys=False))
 
 
-class Ros2Recording:
-    """A sink of the run recorder: every tick as ROS 2 messages to ``outputs`` (a
-    :class:`McapFile`, a live server), converted and written on a thread of its own."""
+#: An output of the recording, made in its process: a class or function and its keywords.
+OutputSpec = tuple[Callable[..., ChannelOutput], dict[str, Any]]
+#: How long the recording's process may take to start (spawn: a fresh interpreter importing
+#: numpy, OpenCV and mcap; seconds on a loaded 2-core machine), s.
+START_TIMEOUT_S = 120.0
+#: How long closing may wait for the queued ticks to be written, s.
+CLOSE_TIMEOUT_S = 300.0
+#: How often the recording's process checks that marknav is still there, s.
+PARENT_POLL_S = 0.5
 
-    def __init__(self, mission: Any, world: Any, outputs: Sequence[ChannelOutput], *,
-                 tree: TreeState | None = None, record_hz: float = RECORD_HZ,
+
+@dataclass
+class _Setup:
+    """Everything the recording's process needs, as plain data."""
+
+    outputs: list[OutputSpec]
+    camera: CameraModel | None
+    colours: dict[str, list[int]]
+    scene: dict[str, Any] | None
+    tree: dict[str, Any]  # TreeState.structure()
+    start_ns: int
+    wheel_base_mm: float | None
+    jpeg_quality: int
+    log_level: int
+    parent_pid: int
+
+
+class Ros2Recording:
+    """A sink of the run recorder: every tick as ROS 2 messages to its outputs (made from
+    ``outputs``: :class:`McapFile`, a live server), in a process of its own.
+
+    The conversion, the CDR and JPEG encoding and the writing take a few milliseconds a tick of
+    pure Python; on a thread they would hold the interpreter's lock against the control loop,
+    so they run in a spawned process fed through a queue: the loop pays for a copy of each kept
+    frame and the queue's pickling. An output that cannot start (a port in use) raises
+    :class:`~marknav.core.errors.InputError` from here, before the run starts. ``port``: the
+    live server's, if there is one.
+    """
+
+    def __init__(self, mission: Any, world: Any, outputs: Sequence[OutputSpec], *,
+                 tree: TreeState, record_hz: float = RECORD_HZ,
                  jpeg_quality: int = JPEG_QUALITY, start_ns: int | None = None) -> None:
+        import multiprocessing
+        import os
+
+        from marknav.core.errors import InputError
+
         if not record_hz > 0:
             raise ValueError(f"record_hz must be positive, got {record_hz}")
         if not 0 <= jpeg_quality <= JPEG_QUALITY_MAX:
             raise ValueError(f"jpeg_quality must be in 0..100, got {jpeg_quality}")
-        self.outputs = list(outputs)
         self.record_hz = record_hz
-        self.jpeg_quality = jpeg_quality
-        self._tree = tree
-        self._mission, self._world_model = mission, world
-        self._start_ns = time.time_ns() if start_ns is None else start_ns
-        self._messages: Ros2Messages | None = None
         self._last_image_t: float | None = None
-        self._queue: queue.SimpleQueue[_Tick | None] = queue.SimpleQueue()
-        self._thread: threading.Thread | None = None
-        self.error: BaseException | None = None
         self.ticks = self.frames = self.images = 0
+        self.port: int | None = None
+        self._closed = False
+        setup = _setup(mission, world, list(outputs), tree, jpeg_quality,
+                       time.time_ns() if start_ns is None else start_ns)
+        setup.parent_pid = os.getpid()
+        ctx = multiprocessing.get_context("spawn")
+        self._inbox: Any = ctx.Queue()
+        self._outbox: Any = ctx.Queue()
+        self._process = ctx.Process(target=_serve, args=(setup, self._inbox, self._outbox),
+                                    name="marknav-recording", daemon=True)
+        self._process.start()
+        reply = self._reply(START_TIMEOUT_S, "start")
+        if reply[0] == "error":
+            self._process.join(PARENT_POLL_S * 4)
+            raise InputError(reply[1], field=reply[2])
+        self.port = reply[1]
 
     # -- the sink interface (called by the recorder on the loop's thread) --------------------
     def tick(self, now: float, record: dict[str, Any], frames: list[tuple[dict[str, Any], Any]],
              state: TreeState) -> None:
-        if self._messages is None:
-            self._start(state)
         kept = []
         for fr, image in frames:
             keep = image is not None and (
@@ -504,80 +548,130 @@ class Ros2Recording:
             if keep:
                 self._last_image_t = now
                 self.images += 1
-            # the frame's array may be reused by the camera: the recording keeps its own copy
+            # the queue pickles later, on its own thread: the recording keeps its own copy
             kept.append((fr, image.copy() if keep and not isinstance(image, bytes)
                          else image if keep else None))
         self.frames += len(frames)
         self.ticks += 1
-        self._queue.put(_Tick(now, record, kept, list(state.status), list(state.message)))
+        self._inbox.put(_Tick(now, record, kept, list(state.status), list(state.message)))
 
     def close(self) -> None:
-        """Write what is queued, close the outputs (the file's summary, metadata.yaml)."""
-        if self._thread is not None:
-            self._queue.put(None)
-            self._thread.join()
-            self._thread = None
-        for out in self.outputs:
-            try:
-                out.close()
-            except Exception:
-                log.exception("closing %s failed", out)
-        self.outputs = []
-        if self.error is not None:
-            raise RuntimeError(f"the recording failed: {self.error}") from self.error
+        """Write what is queued and close the outputs (the file's summary, metadata.yaml)."""
+        if self._closed:
+            return
+        self._closed = True
+        self._inbox.put(None)
+        try:
+            reply = self._reply(CLOSE_TIMEOUT_S, "finish")
+        finally:
+            self._process.join(CLOSE_TIMEOUT_S)
+            if self._process.is_alive():
+                self._process.kill()
+        if reply[1] is not None:
+            raise RuntimeError(f"the recording failed: {reply[1]}")
 
-    # -- internals ---------------------------------------------------------------------------
-    def _start(self, state: TreeState) -> None:
-        mission, world = self._mission, self._world_model
-        colours: dict[str, list[int]] = {}
-        camera = None
-        wheel_base = None
-        if mission is not None:
-            from marknav.sim.builtin_camera import mark_bgr
+    def _reply(self, timeout_s: float, what: str) -> tuple[Any, ...]:
+        try:
+            reply: tuple[Any, ...] = self._outbox.get(timeout=timeout_s)
+        except queue.Empty:
+            self._process.kill()
+            raise RuntimeError(f"the recording's process did not {what} within "
+                               f"{timeout_s:g} s") from None
+        return reply
 
-            colours = {c.name: _rgb(mark_bgr(c)) for c in mission.palette()}
-            camera = CameraModel.of_mission(mission)
-            wheel_base = float(mission.robot.wheel_base_mm)
-        scene = None
-        if world is not None:
-            radius = mission.marks.radius_mm if mission is not None else 100.0
-            scene = {"marks": [{"colour": m.colour, "xy": list(m.xy),
-                                "radius_mm": m.radius(radius)} for m in world.marks],
-                     "walls": [[*w.segment()[0], *w.segment()[1]] for w in world.walls],
-                     "boxes": [[list(c) for c in b.corners()] for b in world.boxes],
-                     "mark_radius_mm": radius}
-        elif mission is not None:
-            scene = {"mark_radius_mm": mission.marks.radius_mm}
-        self._messages = Ros2Messages(camera=camera, colours=colours, world=scene,
-                                      tree=self._tree or state, start_ns=self._start_ns,
-                                      wheel_base_mm=wheel_base, jpeg_quality=self.jpeg_quality)
-        self._thread = threading.Thread(target=self._work, name="marknav-recording",
-                                        daemon=True)
-        self._thread.start()
 
-    def _work(self) -> None:
-        assert self._messages is not None
-        while True:
-            item = self._queue.get()
-            if item is None:
-                return
-            if self.error is not None:
-                continue  # drain: the loop must not wait on a broken recording
-            try:
-                self._write(item)
-            except Exception as exc:  # a full disk, a bug: the run goes on, close() says so
-                log.exception("the recording failed")
-                self.error = exc
+def _setup(mission: Any, world: Any, outputs: list[OutputSpec], tree: TreeState,
+           jpeg_quality: int, start_ns: int) -> _Setup:
+    colours: dict[str, list[int]] = {}
+    camera = None
+    wheel_base = None
+    if mission is not None:
+        from marknav.sim.builtin_camera import mark_bgr
 
-    def _write(self, item: _Tick) -> None:
-        assert self._messages is not None
-        item.frames = [(fr, _jpeg(image, self.jpeg_quality) if image is not None else None)
-                       for fr, image in item.frames]
-        for topic, ns, message in self._messages.tick(item):
-            type_name = TOPICS[topic][0]
-            data = encoder(type_name)(message)
-            for out in self.outputs:
-                out.write(topic, type_name, data, ns)
+        colours = {c.name: _rgb(mark_bgr(c)) for c in mission.palette()}
+        camera = CameraModel.of_mission(mission)
+        wheel_base = float(mission.robot.wheel_base_mm)
+    scene = None
+    radius = mission.marks.radius_mm if mission is not None else None
+    if world is not None:
+        r = radius if radius is not None else 100.0
+        scene = {"marks": [{"colour": m.colour, "xy": [float(v) for v in m.xy],
+                            "radius_mm": float(m.radius(r))} for m in world.marks],
+                 "walls": [[float(v) for v in (*w.segment()[0], *w.segment()[1])]
+                           for w in world.walls],
+                 "boxes": [[[float(v) for v in c] for c in b.corners()] for b in world.boxes],
+                 "mark_radius_mm": r}
+    elif radius is not None:
+        scene = {"mark_radius_mm": radius}
+    return _Setup(outputs=outputs, camera=camera, colours=colours, scene=scene,
+                  tree=tree.structure(), start_ns=start_ns, wheel_base_mm=wheel_base,
+                  jpeg_quality=jpeg_quality,
+                  log_level=logging.getLogger().getEffectiveLevel(), parent_pid=0)
+
+
+def _serve(setup: _Setup, inbox: Any, outbox: Any) -> None:
+    """The recording's process: make the outputs, then write each tick until told to stop (or
+    until marknav is gone: what was written is closed properly)."""
+    import os
+    import signal
+
+    from marknav.core.errors import InputError
+    from marknav.runs.records.tree_state import TreeState
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # marknav decides what a Ctrl-C means
+    logging.basicConfig(level=setup.log_level, format="%(levelname)s %(name)s: %(message)s")
+    outputs: list[ChannelOutput] = []
+    try:
+        for factory, kwargs in setup.outputs:
+            outputs.append(factory(**kwargs))
+    except (InputError, OSError) as exc:
+        for out in outputs:
+            out.close()
+        field = exc.field if isinstance(exc, InputError) else "--record"
+        text = exc.message if isinstance(exc, InputError) else (
+            f"cannot write the recording: {exc.strerror or exc}")
+        outbox.put(("error", text, field))
+        return
+    outbox.put(("ready", next((o.port for o in outputs if hasattr(o, "port")), None)))
+    messages = Ros2Messages(camera=setup.camera, colours=setup.colours, world=setup.scene,
+                            tree=TreeState.from_structure(setup.tree),
+                            start_ns=setup.start_ns, wheel_base_mm=setup.wheel_base_mm,
+                            jpeg_quality=setup.jpeg_quality)
+    error: str | None = None
+    while True:
+        try:
+            item = inbox.get(timeout=PARENT_POLL_S)
+        except queue.Empty:
+            if os.getppid() != setup.parent_pid:
+                break  # marknav is gone: close the file properly
+            continue
+        if item is None:
+            break
+        if error is not None:
+            continue  # drain: marknav must not wait on a broken recording
+        try:
+            _write(messages, outputs, item, setup.jpeg_quality)
+        except Exception as exc:  # a full disk, a bug: the run goes on, close() says so
+            log.exception("the recording failed")
+            error = str(exc) or type(exc).__name__
+    for out in outputs:
+        try:
+            out.close()
+        except Exception as exc:
+            log.exception("closing %s failed", out)
+            error = error or str(exc)
+    outbox.put(("done", error))
+
+
+def _write(messages: Ros2Messages, outputs: Sequence[ChannelOutput], item: _Tick,
+           quality: int) -> None:
+    item.frames = [(fr, _jpeg(image, quality) if image is not None else None)
+                   for fr, image in item.frames]
+    for topic, ns, message in messages.tick(item):
+        type_name = TOPICS[topic][0]
+        data = encoder(type_name)(message)
+        for out in outputs:
+            out.write(topic, type_name, data, ns)
 
 
 def _jpeg(image: Any, quality: int) -> bytes:

@@ -1,0 +1,148 @@
+"""What the recording costs: the slalom's MCAP size, and the loop's speed with ``--record`` and
+with ``--foxglove`` against without (``marknav bench recording``).
+
+The three set-ups run interleaved, ``repeats`` times each, in this process (the other engineers'
+load on a shared machine then falls on all three alike); each figure is the median of its
+repeats. Speeds are the simulated run's wall time and CPU time (the recording's process
+included) and the control cycle's own processing time (p50: poll + tick, what a real robot's
+cycle budget holds); ratios are *with / without*: 1.05 is 5 % slower. With ``--foxglove`` a
+WebSocket client (``websockets``, when installed) subscribes to every channel, so the server
+really sends.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import logging
+import statistics
+import tempfile
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from marknav.missions.schema import Mission
+
+log = logging.getLogger(__name__)
+
+SETUPS = ("plain", "record", "foxglove")
+#: How long the benchmark's Foxglove client waits for the server, s.
+CONNECT_TIMEOUT_S = 30.0
+
+
+def _subscriber(port_of: Callable[[], int | None], stop: threading.Event,
+                counts: dict[str, int]) -> None:
+    """A Foxglove client subscribed to every channel until ``stop``; counts what it gets."""
+    try:
+        import websockets
+        from websockets.typing import Subprotocol
+    except ImportError:
+        return
+
+    async def run() -> None:
+        deadline = time.monotonic() + CONNECT_TIMEOUT_S
+        while (port := port_of()) is None:
+            if stop.is_set() or time.monotonic() > deadline:
+                return
+            await asyncio.sleep(0.01)
+        async with websockets.connect(f"ws://127.0.0.1:{port}",
+                                      subprotocols=[Subprotocol("foxglove.sdk.v1")]) as ws:
+            while not stop.is_set():
+                try:
+                    msg = await asyncio.wait_for(ws.recv(), timeout=0.2)
+                except TimeoutError:
+                    continue
+                except websockets.ConnectionClosed:
+                    return
+                if isinstance(msg, str):
+                    op = json.loads(msg)
+                    if op.get("op") == "advertise":
+                        await ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+                            {"id": ch["id"], "channelId": ch["id"]} for ch in op["channels"]]}))
+                else:
+                    counts["messages"] = counts.get("messages", 0) + 1
+                    counts["bytes"] = counts.get("bytes", 0) + len(msg)
+
+    try:
+        asyncio.run(run())
+    except OSError as exc:
+        log.warning("bench recording: the Foxglove client could not connect: %s", exc)
+
+
+def _cpu_s() -> float:
+    """CPU seconds of this process and of its finished children (the recording's process)."""
+    import resource
+
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime
+
+
+def _one(mission: Mission, setup: str, folder: Path, max_time_s: float,
+         client: dict[str, int]) -> dict[str, float]:
+    from marknav.runs.loop.run import RunRequest, execute
+
+    req = RunRequest(mission=mission, max_time_s=max_time_s,
+                     record_path=folder / f"{setup}.mcap" if setup == "record" else None,
+                     foxglove_port=0 if setup == "foxglove" else None)
+    stop = threading.Event()
+    thread = None
+    if setup == "foxglove":
+        thread = threading.Thread(target=_subscriber,
+                                  args=(lambda: req.foxglove_bound, stop, client), daemon=True)
+        thread.start()
+    cpu0 = _cpu_s()
+    try:
+        report = execute(req).report
+    finally:
+        stop.set()
+        if thread is not None:
+            thread.join(timeout=CONNECT_TIMEOUT_S)
+    out = {"wall_s": report.wall_time_s, "cpu_s": _cpu_s() - cpu0,
+           "cycle_ms_p50": float(report.tick_ms["p50"]), "sim_time_s": report.sim_time_s}
+    if req.record_path is not None:
+        out["bytes"] = float(req.record_path.stat().st_size)
+        out["metadata_bytes"] = float(req.record_path.with_name("metadata.yaml").stat().st_size)
+    return out
+
+
+def bench_recording(*, mission: Mission | None = None, max_time_s: float = 60.0,
+                    repeats: int = 3) -> dict[str, Any]:
+    """The slalom (default) run ``repeats`` times each without a recording, with ``--record``
+    and with ``--foxglove`` (and a subscribed client): size and speed ratios."""
+    from marknav.runs.benchmarks.suite import default_slalom
+
+    if repeats < 1:
+        raise ValueError(f"repeats must be at least 1, got {repeats}")
+    mission = mission if mission is not None else default_slalom()
+    package = logging.getLogger("marknav")
+    old = package.level
+    package.setLevel(max(old, logging.ERROR))
+    runs: dict[str, list[dict[str, float]]] = {s: [] for s in SETUPS}
+    client: dict[str, int] = {}
+    try:
+        with tempfile.TemporaryDirectory(prefix="marknav-bench-") as tmp:
+            for _ in range(repeats):
+                for setup in SETUPS:
+                    runs[setup].append(_one(mission, setup, Path(tmp), max_time_s, client))
+    finally:
+        package.setLevel(old)
+
+    def median(setup: str, key: str) -> float:
+        return float(statistics.median(r[key] for r in runs[setup]))
+
+    out: dict[str, Any] = {"mission": mission.name, "repeats": repeats,
+                           "sim_time_s": round(median("plain", "sim_time_s"), 2)}
+    for setup in SETUPS:
+        out[setup] = {k: round(median(setup, k), 3) for k in ("wall_s", "cpu_s", "cycle_ms_p50")}
+    out["record"]["mcap_mb"] = round(median("record", "bytes") / 1e6, 2)
+    out["record"]["metadata_bytes"] = int(median("record", "metadata_bytes"))
+    out["foxglove"]["client"] = ({"messages": client.get("messages", 0) // repeats,
+                                  "mb": round(client.get("bytes", 0) / repeats / 1e6, 2)}
+                                 if client else "no client (websockets not installed)")
+    for setup in ("record", "foxglove"):
+        out[f"{setup}_over_plain"] = {
+            k: round(median(setup, k) / max(median("plain", k), 1e-9), 3)
+            for k in ("wall_s", "cpu_s", "cycle_ms_p50")}
+    return out
