@@ -107,7 +107,7 @@ def _recording(quick: bool) -> dict[str, Any]:
     from marknav.runs.benchmarks.recording import bench_recording
 
     return (bench_recording(max_time_s=5.0, repeats=1) if quick
-            else bench_recording(max_time_s=60.0, repeats=3))
+            else bench_recording(max_time_s=60.0, repeats=5))
 
 
 def _render(quick: bool) -> dict[str, Any]:

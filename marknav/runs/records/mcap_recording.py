@@ -618,7 +618,9 @@ def _serve(setup: _Setup, inbox: Any, outbox: Any) -> None:
     from marknav.core.errors import InputError
     from marknav.runs.records.tree_state import TreeState
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # marknav decides what a Ctrl-C means
+    # marknav decides what a signal means: it closes the recording when it stops
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     logging.basicConfig(level=setup.log_level, format="%(levelname)s %(name)s: %(message)s")
     outputs: list[ChannelOutput] = []
     try:

@@ -219,3 +219,53 @@ def test_rerun_converts_the_recording(recorded: dict[str, Any], tmp_path: Path) 
     # Rerun decoded the ROS 2 types into its own: JPEG images, the camera, the transforms
     for component in ("EncodedImage:blob", "Pinhole:image", "Transform3D:translation"):
         assert component in text, component
+
+
+@pytest.mark.parametrize(("argv", "says"), [
+    (["--record", "run.rrd"], "--record: the recording's file name must end in .mcap"),
+    (["--record-hz", "0"], "--record-hz: must be positive, got 0.0"),
+    (["--record-quality", "101"], "--record-quality: must be in 0..100, got 101"),
+    (["--foxglove", "70000"], "--foxglove: must be a port in 0..65535, got 70000"),
+])
+def test_bad_recording_options_exit_2_naming_them(
+        argv: list[str], says: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from marknav.cli.main import main
+
+    assert main(["run", str(SLALOM), "--tree", "none", "--report",
+                 str(tmp_path / "r.json"), *argv]) == 2
+    err = capsys.readouterr().err
+    assert says in err and "Traceback" not in err
+    assert not (tmp_path / "r.json").exists()  # refused before anything started
+
+
+def test_a_folder_holding_another_bag_is_refused_before_the_run(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from marknav.cli.main import main
+
+    (tmp_path / "metadata.yaml").write_text("rosbag2_bagfile_information:\n"
+                                            "  relative_file_paths: [other.mcap]\n")
+    assert main(["run", str(SLALOM), "--tree", "none", "--report", str(tmp_path / "r.json"),
+                 "--record", str(tmp_path / "run.mcap")]) == 2
+    err = capsys.readouterr().err
+    assert "belongs to another recording" in err and "--record" in err
+    assert not (tmp_path / "run.mcap").exists()
+
+
+def test_a_port_in_use_exits_2_before_the_robot_moves(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    pytest.importorskip("foxglove")
+    import socket
+
+    from marknav.cli.main import main
+
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        code = main(["run", str(SLALOM), "--tree", "none", "--report", str(tmp_path / "r.json"),
+                     "--foxglove", str(port)])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert f"--foxglove: cannot serve on 127.0.0.1:{port}" in err and "Traceback" not in err
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["outcome"] == "aborted" and report["ticks"] == 0
