@@ -18,13 +18,12 @@ import json
 import logging
 import statistics
 import tempfile
-import threading
 import time
-from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from marknav.missions.schema import Mission
+if TYPE_CHECKING:
+    from marknav.missions.schema import Mission
 
 log = logging.getLogger(__name__)
 
@@ -33,23 +32,30 @@ SETUPS = ("plain", "record", "foxglove")
 CONNECT_TIMEOUT_S = 30.0
 
 
-def _subscriber(port_of: Callable[[], int | None], stop: threading.Event,
-                counts: dict[str, int]) -> None:
-    """A Foxglove client subscribed to every channel until ``stop``; counts what it gets."""
+def _subscriber(port: int, ready: Any, stop: Any, results: Any) -> None:
+    """A Foxglove client (in a process of its own: its CPU is not the loop's) subscribed to
+    every channel until ``stop`` is set; puts what it got (messages, bytes) on ``results``."""
+    counts: dict[str, float] = {}
     try:
         import websockets
         from websockets.typing import Subprotocol
     except ImportError:
+        results.put(counts)
         return
 
     async def run() -> None:
         deadline = time.monotonic() + CONNECT_TIMEOUT_S
-        while (port := port_of()) is None:
-            if stop.is_set() or time.monotonic() > deadline:
-                return
-            await asyncio.sleep(0.01)
-        async with websockets.connect(f"ws://127.0.0.1:{port}",
-                                      subprotocols=[Subprotocol("foxglove.sdk.v1")]) as ws:
+        ready.set()
+        while True:  # the server starts with the run
+            try:
+                ws = await websockets.connect(f"ws://127.0.0.1:{port}",
+                                              subprotocols=[Subprotocol("foxglove.sdk.v1")])
+                break
+            except OSError:
+                if stop.is_set() or time.monotonic() > deadline:
+                    return
+                await asyncio.sleep(0.01)
+        async with ws:
             while not stop.is_set():
                 try:
                     msg = await asyncio.wait_for(ws.recv(), timeout=0.2)
@@ -66,10 +72,17 @@ def _subscriber(port_of: Callable[[], int | None], stop: threading.Event,
                     counts["messages"] = counts.get("messages", 0) + 1
                     counts["bytes"] = counts.get("bytes", 0) + len(msg)
 
-    try:
-        asyncio.run(run())
-    except OSError as exc:
-        log.warning("bench recording: the Foxglove client could not connect: %s", exc)
+    asyncio.run(run())
+    counts["cpu_s"] = time.process_time()  # this process's own: not the recording's
+    results.put(counts)
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
 
 
 def _children_cpu_s() -> float:
@@ -81,27 +94,39 @@ def _children_cpu_s() -> float:
 
 
 def _one(mission: Mission, setup: str, folder: Path, max_time_s: float,
-         client: dict[str, int]) -> dict[str, float]:
+         client: dict[str, float]) -> dict[str, float]:
+    import multiprocessing
+
     from marknav.runs.loop.run import RunRequest, execute
 
+    port = _free_port() if setup == "foxglove" else None
     req = RunRequest(mission=mission, max_time_s=max_time_s,
                      record_path=folder / f"{setup}.mcap" if setup == "record" else None,
-                     foxglove_port=0 if setup == "foxglove" else None)
-    stop = threading.Event()
-    thread = None
-    if setup == "foxglove":
-        thread = threading.Thread(target=_subscriber,
-                                  args=(lambda: req.foxglove_bound, stop, client), daemon=True)
-        thread.start()
-    cpu0, children0 = time.process_time(), _children_cpu_s()
+                     foxglove_port=port)
+    ctx = multiprocessing.get_context("spawn")
+    ready, stop, results = ctx.Event(), ctx.Event(), ctx.Queue()
+    subscriber = None
+    if port is not None:
+        subscriber = ctx.Process(target=_subscriber, args=(port, ready, stop, results),
+                                 daemon=True)
+        subscriber.start()
+        ready.wait(CONNECT_TIMEOUT_S)  # trying to connect before the server starts
+    children0 = _children_cpu_s()
+    cpu0 = time.process_time()
     try:
         report = execute(req).report
     finally:
+        loop_cpu = time.process_time() - cpu0
         stop.set()
-        if thread is not None:
-            thread.join(timeout=CONNECT_TIMEOUT_S)
-    out = {"wall_s": report.wall_time_s, "loop_cpu_s": time.process_time() - cpu0,
-           "recording_cpu_s": _children_cpu_s() - children0,
+        got: dict[str, float] = {}
+        if subscriber is not None:
+            got = results.get(timeout=CONNECT_TIMEOUT_S)
+            subscriber.join(timeout=CONNECT_TIMEOUT_S)
+            for key in ("messages", "bytes"):
+                client[key] = client.get(key, 0) + got.get(key, 0)
+    recording_cpu = _children_cpu_s() - children0 - got.get("cpu_s", 0.0)
+    out = {"wall_s": report.wall_time_s, "loop_cpu_s": loop_cpu,
+           "recording_cpu_s": recording_cpu,
            "cycle_ms_p50": float(report.tick_ms["p50"]), "sim_time_s": report.sim_time_s}
     if req.record_path is not None:
         out["bytes"] = float(req.record_path.stat().st_size)
@@ -122,7 +147,7 @@ def bench_recording(*, mission: Mission | None = None, max_time_s: float = 60.0,
     old = package.level
     package.setLevel(max(old, logging.ERROR))
     runs: dict[str, list[dict[str, float]]] = {s: [] for s in SETUPS}
-    client: dict[str, int] = {}
+    client: dict[str, float] = {}
     try:
         with tempfile.TemporaryDirectory(prefix="marknav-bench-") as tmp:
             for _ in range(repeats):
@@ -141,7 +166,7 @@ def bench_recording(*, mission: Mission | None = None, max_time_s: float = 60.0,
                       for k in ("wall_s", "loop_cpu_s", "recording_cpu_s", "cycle_ms_p50")}
     out["record"]["mcap_mb"] = round(median("record", "bytes") / 1e6, 2)
     out["record"]["metadata_bytes"] = int(median("record", "metadata_bytes"))
-    out["foxglove"]["client"] = ({"messages": client.get("messages", 0) // repeats,
+    out["foxglove"]["client"] = ({"messages": int(client.get("messages", 0)) // repeats,
                                   "mb": round(client.get("bytes", 0) / repeats / 1e6, 2)}
                                  if client else "no client (websockets not installed)")
     for setup in ("record", "foxglove"):
