@@ -98,8 +98,7 @@ def run(args: argparse.Namespace) -> int:
         args.mission = mission_path(args.mission)
 
     parse_overrides(args.overrides)  # a malformed --set: exit 2 before anything runs
-    if args.record_failures is not None:
-        _check_record_folder(args.record_failures)
+    _check_record_folder(args.record_failures)
     if args.dask is not None and args.jobs != 1:
         raise InputError("--jobs is for local processes; with --dask the cluster's workers "
                          "run the evaluation", field="--jobs")
@@ -130,18 +129,19 @@ def run(args: argparse.Namespace) -> int:
     finally:
         progress.finish()
     _print(ev, as_json=args.json)
-    if args.record_failures is not None and ev.failures:
-        _record(ev, args.record_failures)
+    _record(ev, args.record_failures)
     if not ev.passed:
         raise MissionFailed(f"success rate {ev.success_rate:.1%} ({ev.successes}/{ev.runs}) is "
                             f"under --min-success {ev.min_success:.1%}")
     return 0
 
 
-def _check_record_folder(folder: Path) -> None:
+def _check_record_folder(folder: Path | None) -> None:
     """--record-failures DIR: the MCAP writer is installed and DIR is (or can be) a folder."""
     from marknav.core.outputs import printable
 
+    if folder is None:
+        return
     try:
         import mcap_ros2  # noqa: F401
     except ImportError:
@@ -155,10 +155,13 @@ def _check_record_folder(folder: Path) -> None:
     folder.mkdir(exist_ok=True)
 
 
-def _record(ev: Evaluation, folder: Path) -> None:
+def _record(ev: Evaluation, folder: Path | None) -> None:
+    """--record-failures DIR: the failing seeds again, recorded."""
     from marknav.core.outputs import printable
     from marknav.runs.evaluation.evaluate import record_failures
 
+    if folder is None or not ev.failures:
+        return
     def said(failure: SeedResult, path: Path, again: SeedResult) -> None:
         same = "" if again.outcome == failure.outcome else (
             f" (this time {again.outcome}: {again.reason})")
