@@ -531,7 +531,12 @@ class Ros2Recording:
         self._process = ctx.Process(target=_serve, args=(setup, self._inbox, self._outbox),
                                     name="marknav-recording", daemon=True)
         self._process.start()
-        reply = self._reply(START_TIMEOUT_S, "start")
+        try:
+            reply = self._reply(START_TIMEOUT_S, "start")
+        except BaseException:  # Ctrl-C while it starts: it closes what it opened and ends
+            self._process.terminate()
+            self._process.join(CLOSE_TIMEOUT_S)
+            raise
         if reply[0] == "error":
             self._process.join(PARENT_POLL_S * 4)
             raise InputError(reply[1], field=reply[2])
@@ -618,9 +623,11 @@ def _serve(setup: _Setup, inbox: Any, outbox: Any) -> None:
     from marknav.core.errors import InputError
     from marknav.runs.records.tree_state import TreeState
 
-    # marknav decides what a signal means: it closes the recording when it stops
+    # marknav decides what a Ctrl-C means: it closes the recording when it stops. SIGTERM (from
+    # marknav's own exit, or a kill) stops at the next tick with the file closed properly.
+    stopping: list[int] = []
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, lambda signum, frame: stopping.append(signum))
     logging.basicConfig(level=setup.log_level, format="%(levelname)s %(name)s: %(message)s")
     outputs: list[ChannelOutput] = []
     try:
@@ -640,7 +647,7 @@ def _serve(setup: _Setup, inbox: Any, outbox: Any) -> None:
                             start_ns=setup.start_ns, wheel_base_mm=setup.wheel_base_mm,
                             jpeg_quality=setup.jpeg_quality)
     error: str | None = None
-    while True:
+    while not stopping:
         try:
             item = inbox.get(timeout=PARENT_POLL_S)
         except queue.Empty:

@@ -269,3 +269,37 @@ def test_a_port_in_use_exits_2_before_the_robot_moves(
     assert f"--foxglove: cannot serve on 127.0.0.1:{port}" in err and "Traceback" not in err
     report = json.loads((tmp_path / "r.json").read_text())
     assert report["outcome"] == "aborted" and report["ticks"] == 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM"])
+def test_a_signal_mid_run_leaves_a_complete_recording_of_every_tick(
+        tmp_path: Path, signame: str) -> None:
+    import signal
+    import time
+
+    from mcap.reader import make_reader
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "marknav", "run", str(SLALOM), "--tree", "none", "--realtime",
+         "--report", str(tmp_path / "report.json"), "--record"],
+        cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)},
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    log_path = tmp_path / "report.events.jsonl"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:  # the loop has ticked for a while
+        if log_path.exists() and log_path.read_text().count('"kind": "tick"') > 40:
+            break
+        time.sleep(0.1)
+    proc.send_signal(getattr(signal, signame))
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["outcome"] == "aborted" and report["ticks"] > 40
+    with open(tmp_path / "run.mcap", "rb") as fh:
+        summary = make_reader(fh).get_summary()  # written whole: the summary is there
+    assert summary is not None and summary.statistics is not None
+    counts = {summary.channels[k].topic: n
+              for k, n in summary.statistics.channel_message_counts.items()}
+    assert counts["/marknav/tree"] == counts["/tf"] == report["ticks"]
+    assert (tmp_path / "metadata.yaml").is_file()
