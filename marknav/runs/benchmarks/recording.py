@@ -1,24 +1,32 @@
 """What the recording costs: the slalom's MCAP size, and the loop's speed with ``--record`` and
 with ``--foxglove`` against without (``marknav bench recording``).
 
-The three set-ups run interleaved, ``repeats`` times each, in this process (the other engineers'
-load on a shared machine then falls on all three alike); each figure is the median of its
-repeats. Speeds are the simulated run's wall time, the CPU time of marknav's own process (the loop:
-``loop_cpu_s``, the figure a busy shared machine disturbs least) and of the recording's process
-(``recording_cpu_s``, on the other core), and the control cycle's processing time (p50: poll +
-tick, what a real robot's cycle budget holds); ratios are *with / without*: 1.05 is 5 %
-slower. With ``--foxglove`` a WebSocket client (``websockets``, when installed) subscribes to
-every channel, so the server really sends.
+The three set-ups run interleaved, ``repeats`` times each, in this process (other work on a
+shared machine then falls on all three alike); each figure is the median of its repeats.
+
+- ``handover_share_of_loop_cpu``: the slowdown measured where it happens — the CPU time the
+  loop spends handing each tick to the recording (the recorder's call and the queue's pickling
+  on its feeder thread, thread CPU time) over the loop's own CPU time without it;
+- ``loop_cpu_s``: the CPU time of marknav's own process; ``recording_cpu_s``: of the
+  recording's process (on the other core);
+- ``wall_s`` and ``cycle_ms_p50`` (the control cycle's processing time: poll + tick): wall
+  clock, which a loaded machine disturbs most.
+
+Ratios are *with / without*: 1.05 is 5 % slower. With ``--foxglove`` a WebSocket client
+(``websockets``, when installed, in a process of its own) subscribes to every channel, so the
+server really sends.
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import logging
 import statistics
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -77,6 +85,40 @@ def _subscriber(port: int, ready: Any, stop: Any, results: Any) -> None:
     results.put(counts)
 
 
+@contextlib.contextmanager
+def _handover_timed(spent: dict[str, float]) -> Iterator[None]:
+    """While inside, the CPU time of what the loop does for the recording: the recorder's call
+    (:meth:`Ros2Recording.tick`: the frame copy, the queue put) and the queue's pickling on its
+    feeder thread (which holds the interpreter's lock), in ``spent`` (s, thread CPU time)."""
+    from multiprocessing.reduction import ForkingPickler
+
+    from marknav.runs.records.mcap_recording import Ros2Recording
+
+    tick, dumps = Ros2Recording.tick, ForkingPickler.__dict__["dumps"]
+
+    def timed_tick(self: Ros2Recording, *args: Any) -> None:
+        t0 = time.thread_time()
+        try:
+            tick(self, *args)
+        finally:
+            spent["tick"] = spent.get("tick", 0.0) + time.thread_time() - t0
+
+    def timed_dumps(cls: type, obj: Any, protocol: int | None = None) -> Any:
+        t0 = time.thread_time()
+        try:
+            return dumps.__func__(cls, obj, protocol)
+        finally:
+            spent["pickle"] = spent.get("pickle", 0.0) + time.thread_time() - t0
+
+    Ros2Recording.tick = timed_tick  # type: ignore[method-assign,assignment]
+    ForkingPickler.dumps = classmethod(timed_dumps)  # type: ignore[assignment,method-assign]
+    try:
+        yield
+    finally:
+        Ros2Recording.tick = tick  # type: ignore[method-assign]
+        ForkingPickler.dumps = dumps  # type: ignore[method-assign]
+
+
 def _free_port() -> int:
     import socket
 
@@ -112,9 +154,11 @@ def _one(mission: Mission, setup: str, folder: Path, max_time_s: float,
         subscriber.start()
         ready.wait(CONNECT_TIMEOUT_S)  # trying to connect before the server starts
     children0 = _children_cpu_s()
+    spent: dict[str, float] = {}
     cpu0 = time.process_time()
     try:
-        report = execute(req).report
+        with _handover_timed(spent):
+            report = execute(req).report
     finally:
         loop_cpu = time.process_time() - cpu0
         stop.set()
@@ -126,6 +170,7 @@ def _one(mission: Mission, setup: str, folder: Path, max_time_s: float,
                 client[key] = client.get(key, 0) + got.get(key, 0)
     recording_cpu = _children_cpu_s() - children0 - got.get("cpu_s", 0.0)
     out = {"wall_s": report.wall_time_s, "loop_cpu_s": loop_cpu,
+           "handover_cpu_s": spent.get("tick", 0.0) + spent.get("pickle", 0.0),
            "recording_cpu_s": recording_cpu,
            "cycle_ms_p50": float(report.tick_ms["p50"]), "sim_time_s": report.sim_time_s}
     if req.record_path is not None:
@@ -164,6 +209,12 @@ def bench_recording(*, mission: Mission | None = None, max_time_s: float = 60.0,
     for setup in SETUPS:
         out[setup] = {k: round(median(setup, k), 3)
                       for k in ("wall_s", "loop_cpu_s", "recording_cpu_s", "cycle_ms_p50")}
+        if setup != "plain":
+            # what the loop itself does for the recording, as a share of the loop's CPU time:
+            # the slowdown the recording causes, measured where it happens
+            out[setup]["handover_share_of_loop_cpu"] = round(float(statistics.median(
+                r["handover_cpu_s"] / max(r["loop_cpu_s"] - r["handover_cpu_s"], 1e-9)
+                for r in runs[setup])), 4)
     out["record"]["mcap_mb"] = round(median("record", "bytes") / 1e6, 2)
     out["record"]["metadata_bytes"] = int(median("record", "metadata_bytes"))
     out["foxglove"]["client"] = ({"messages": int(client.get("messages", 0)) // repeats,
