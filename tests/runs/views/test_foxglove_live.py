@@ -105,3 +105,24 @@ def test_a_client_receives_the_camera_and_the_tree_while_the_mission_runs(
     ticks = [json.loads(store.deserialize_cdr(raw, "std_msgs/msg/String").data)["tick"]
              for raw in got["/marknav/tree"]]
     assert ticks == sorted(ticks) and len(set(ticks)) == len(ticks)
+
+
+def test_the_server_speaks_only_the_sdk_subprotocol() -> None:
+    from websockets.exceptions import InvalidStatus
+
+    from marknav.runs.views.foxglove_live import FoxgloveLive
+
+    live = FoxgloveLive(0)
+
+    async def connect(subprotocol: str) -> str:
+        async with websockets.connect(f"ws://127.0.0.1:{live.port}",
+                                      subprotocols=[subprotocol]) as ws:
+            return json.loads(await asyncio.wait_for(ws.recv(), timeout=10))["op"]
+
+    try:
+        assert asyncio.run(connect("foxglove.sdk.v1")) == "serverInfo"
+        with pytest.raises(InvalidStatus) as refused:
+            asyncio.run(connect("foxglove.websocket.v1"))
+        assert refused.value.response.status_code == 400
+    finally:
+        live.close()
