@@ -57,6 +57,12 @@ LINE_WIDTH_M = 0.02
 TEXT_HEIGHT_M = 0.12
 MM = 0.001  # metres per millimetre
 MM_PER_M = 1000.0
+#: Line width of the circles drawn on the image, px; label size, px.
+ANNOTATION_LINE_PX = 2.0
+ANNOTATION_FONT_PX = 14.0
+#: Foxglove's image coordinates start at the top-left corner of the top-left pixel; OpenCV's
+#: at that pixel's centre.
+PIXEL_CENTRE = 0.5
 #: Version of the tree message's JSON (``schema`` in every message).
 TREE_SCHEMA = "marknav.tree/1"
 
@@ -70,6 +76,8 @@ TOPICS: dict[str, tuple[str, str]] = {
                                  "the frames the detector processed, JPEG, at most --record-hz"),
     "/camera/camera_info": ("sensor_msgs/msg/CameraInfo", "the mission's intrinsics, with "
                             "every image"),
+    "/camera/annotations": ("foxglove_msgs/msg/ImageAnnotations", "the marks detected in "
+                            "each image: a circle and a label, image pixels"),
     "/tf": ("tf2_msgs/msg/TFMessage", "odom -> base_link (odometry) and world -> "
             "base_link_truth (simulator), every tick"),
     "/tf_static": ("tf2_msgs/msg/TFMessage", "world -> odom, base_link -> camera_link -> "
@@ -336,6 +344,7 @@ class Ros2Messages:
             if self.camera is not None:
                 out.append(("/camera/camera_info", log_ns, self.camera.info(shot,
                                                                             fr.get("size"))))
+            out.append(("/camera/annotations", log_ns, self._annotations(shot, fr)))
         markers: list[dict[str, Any]] = [_marker(shot, "base_link", "", 0, CYLINDER,
                                                  action=DELETEALL)]
         for k, m in enumerate(fr.get("marks", [])):
@@ -349,6 +358,27 @@ class Ros2Messages:
                                   f"{m['colour']} {m['range_mm'] / MM_PER_M:.2f} m"))
         out.append(("/marknav/marks/detected", log_ns, {"markers": markers}))
         return out
+
+    def _annotations(self, shot: int, fr: dict[str, Any]) -> dict[str, Any]:
+        """Each detection in the image: a circle (the ellipse's mean diameter) in its colour,
+        and its colour and range as a label above it."""
+        circles, texts = [], []
+        for m in fr.get("marks", []):
+            colour = {k: float(v) for k, v in
+                      _colour(self.colours.get(m["colour"], [255, 255, 255])).items()}
+            x, y = m["x_px"] + PIXEL_CENTRE, m["y_px"] + PIXEL_CENTRE
+            half = (float(m["axes_px"][0]) + float(m["axes_px"][1])) / 2.0  # semi-axes
+            circles.append({"timestamp": _stamp(shot), "position": {"x": x, "y": y},
+                            "diameter": 2.0 * half, "thickness": ANNOTATION_LINE_PX,
+                            "fill_color": {**colour, "a": 0.0}, "outline_color": colour})
+            label = (f"{m['colour']} {m['range_mm'] / MM_PER_M:.2f} m" if "range_mm" in m
+                     else m["colour"])
+            texts.append({"timestamp": _stamp(shot),
+                          "position": {"x": x - half, "y": y - half - ANNOTATION_FONT_PX},
+                          "text": label, "font_size": ANNOTATION_FONT_PX,
+                          "text_color": colour,
+                          "background_color": {"r": 0.0, "g": 0.0, "b": 0.0, "a": 0.6}})
+        return {"circles": circles, "points": [], "texts": texts}
 
     def _pose(self, ns: int, now: float,
               record: dict[str, Any]) -> list[tuple[str, int, dict[str, Any]]]:

@@ -90,7 +90,7 @@ def test_rosbags_reads_every_topic_with_the_runs_counts(recorded: dict[str, Any]
             assert counts[topic] == report.ticks, topic
         assert counts["/marknav/marks/detected"] == len(frames) > 0
         images = counts["/camera/image/compressed"]
-        assert images == counts["/camera/camera_info"]
+        assert images == counts["/camera/camera_info"] == counts["/camera/annotations"]
         assert RECORD_HZ * report.sim_time_s - 1 <= images <= RECORD_HZ * report.sim_time_s + 1
         # the static messages: at the start and once a second after
         assert counts["/tf_static"] == counts["/marknav/marks/world"] == (
@@ -141,8 +141,9 @@ def test_each_image_decodes_to_the_frame_the_detector_saw(recorded: dict[str, An
                   if r["kind"] == "frame"}
     images = [m for topic, _, m in msgs if topic == "/camera/image/compressed"]
     infos = [m for topic, _, m in msgs if topic == "/camera/camera_info"]
+    drawn = [m for topic, _, m in msgs if topic == "/camera/annotations"]
     assert images
-    for img, info in zip(images, infos, strict=True):
+    for img, info, notes in zip(images, infos, drawn, strict=True):
         stamp = img.header.stamp.sec * 1_000_000_000 + img.header.stamp.nanosec
         frame = by_capture[round((stamp - start_ns) / 1e9, 4)]
         seen = recorded["seen"][frame["index"]]
@@ -153,6 +154,13 @@ def test_each_image_decodes_to_the_frame_the_detector_saw(recorded: dict[str, An
         assert info.header.stamp == img.header.stamp
         assert (info.width, info.height) == (seen.shape[1], seen.shape[0])
         assert info.header.frame_id == img.header.frame_id == "camera_optical"
+        # the detections drawn on it: a circle and a label each, at the ellipse's centre
+        assert len(notes.circles) == len(notes.texts) == len(frame["marks"])
+        for circle, text, m in zip(notes.circles, notes.texts, frame["marks"], strict=True):
+            assert circle.timestamp == img.header.stamp
+            assert (circle.position.x, circle.position.y) == (m["x_px"] + 0.5, m["y_px"] + 0.5)
+            assert circle.diameter == pytest.approx(sum(m["axes_px"]))
+            assert text.text.startswith(m["colour"])
 
 
 @pytest.mark.slow

@@ -10,9 +10,12 @@ from marknav.runs.records.ros2_types import MSG_DIR, SEPARATOR, definition, depe
 rosbags = pytest.importorskip("rosbags")
 
 SHIPPED = sorted(f"{p.parent.parent.name}/msg/{p.stem}" for p in MSG_DIR.glob("*/msg/*.msg"))
+#: The ROS 2 core interfaces (Jazzy's typestore has them; foxglove_msgs is not among them: the
+#: recording test decodes its annotations from the definitions stored in the file).
+CORE = [n for n in SHIPPED if not n.startswith("foxglove_msgs/")]
 
 
-@pytest.mark.parametrize("name", SHIPPED)
+@pytest.mark.parametrize("name", CORE)
 def test_each_definition_has_the_fields_and_constants_of_ros2_jazzy(name: str) -> None:
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
