@@ -17,6 +17,10 @@ versions) once at the top level, then a section per benchmark:
   (:func:`marknav.runs.benchmarks.suite.bench_tree`);
 - ``loop`` — a simulated mission with rendering and detection: cycle times, overruns, speed-up
   (:func:`marknav.runs.benchmarks.suite.bench_loop`);
+- ``recording`` (not part of ``all``: the ``record`` and ``foxglove`` extras) — the slalom's
+  MCAP recording: its size, and the loop's wall time, CPU time
+  and cycle time with ``--record`` and with ``--foxglove`` (a client subscribed) over without,
+  as ratios (:func:`marknav.runs.benchmarks.recording.bench_recording`);
 - ``safety`` — bump-to-stop latency, safety layer alone and through the real driver
   (:func:`marknav.runs.benchmarks.suite.bench_safety`);
 - ``render`` — ms per simulator frame against the 2 ms target
@@ -99,6 +103,13 @@ def _loop(quick: bool) -> dict[str, Any]:
     return bench_loop(max_time_s=5.0) if quick else bench_loop(max_time_s=60.0)
 
 
+def _recording(quick: bool) -> dict[str, Any]:
+    from marknav.runs.benchmarks.recording import bench_recording
+
+    return (bench_recording(max_time_s=5.0, repeats=1) if quick
+            else bench_recording(max_time_s=60.0, repeats=5))
+
+
 def _render(quick: bool) -> dict[str, Any]:
     from marknav.runs.benchmarks.render import bench_render
 
@@ -139,6 +150,9 @@ BENCHMARKS: dict[str, Benchmark] = {b.name: b for b in (
               "the built-in renderer (extra: mujoco; not in all)", _mujoco, in_all=False),
     Benchmark("dask", "evaluation throughput on a local Dask cluster, 1 then 2 workers, "
               "cluster start excluded (8 slalom runs each; not in all)", _dask, in_all=False),
+    Benchmark("recording", "the slalom's MCAP size; loop speed with --record and with "
+              "--foxglove over without (extras: record, foxglove; not in all)", _recording,
+              in_all=False),
 )}
 
 

@@ -40,16 +40,15 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "view",
         help="open a recorded run in the Rerun viewer (extra: viewer)",
         description=(
-            "Open RUN in the Rerun viewer: a recording (.rrd from 'marknav run --record'), or a "
-            "run folder / run log, which is converted to a recording first (camera images only "
-            "where the run saved frames with --frames). --save FILE.rrd writes the recording "
-            "without opening a viewer. marknav sets RERUN_ANALYTICS=0 for the viewer it starts "
-            "(Rerun otherwise sends anonymous usage data)."
+            "Open RUN in the Rerun viewer: a recording (FILE.mcap from 'marknav run --record', "
+            "which Rerun reads itself), a folder holding one (the run's folder, a rosbag2 "
+            "folder), or else a run folder / run log, which is streamed to the viewer (camera "
+            "images only where the run saved frames with --frames). marknav sets "
+            "RERUN_ANALYTICS=0 for the viewer it starts (Rerun otherwise sends anonymous usage "
+            "data)."
         ),
     )
-    v.add_argument("run", metavar="RUN", help="FILE.rrd, run folder or run log")
-    v.add_argument("--save", metavar="FILE.rrd", type=Path,
-                   help="write the recording here instead of opening the viewer")
+    v.add_argument("run", metavar="RUN", help="FILE.mcap, run folder or run log")
     v.set_defaults(func=view)
 
 
@@ -149,29 +148,35 @@ def view(args: argparse.Namespace) -> int:
     from marknav.runs.views.viewer import require_display, require_rerun
 
     require_rerun("view")  # also sets RERUN_ANALYTICS=0 unless the user chose otherwise
-    path = Path(args.run)
-    if path.suffix == ".rrd":
-        check_regular_file(path, what="a Rerun recording (.rrd)")
-        if args.save is not None:
-            shutil.copyfile(path, args.save)
-            print(f"recording: {args.save}")
-            return 0
+    recording = _recording_of(Path(args.run))
+    if recording is not None:
         require_display("view")
-        return _open_viewer(path)
+        return _open_viewer(recording)
     from marknav.runs.records.runlog import read_log, resolve_log
     from marknav.runs.views.viewer import log_to_recording
 
-    log_path = resolve_log(path)
+    log_path = resolve_log(Path(args.run))
     records = read_log(log_path)
-    if args.save is not None:
-        sink = log_to_recording(log_path, records, path=args.save)
-        sink.close()
-        print(f"recording: {args.save} ({sink.ticks} ticks, {sink.frames} frames)")
-        return 0
     require_display("view")
     sink = log_to_recording(log_path, records, spawn=True)
     sink.close()
     return 0
+
+
+def _recording_of(path: Path) -> Path | None:
+    """The MCAP recording RUN names: the file itself, or the one in the folder (None: none)."""
+    import stat
+
+    from marknav.core.inputfile import stat_path
+
+    if path.suffix == ".mcap":
+        check_regular_file(path, what="a recording (.mcap)")
+        return path
+    st = stat_path(path, field="RUN")
+    if st is not None and stat.S_ISDIR(st.st_mode):
+        found = sorted(path.glob("*.mcap"))
+        return found[0] if found else None
+    return None
 
 
 def _open_viewer(path: Path) -> int:

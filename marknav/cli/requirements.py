@@ -1,12 +1,12 @@
 """What each option needs installed, checked before a command does anything.
 
-An option that needs an optional extra (``--plot`` matplotlib, ``--viewer``/``--record`` the
-Rerun SDK, ``--engine mujoco`` MuJoCo and its off-screen OpenGL library, ``marknav view`` Rerun)
-is refused with exit 2 before the command starts: a run is never driven to its end only to fail
-at drawing its picture, and no run folder is left behind. :data:`OPTION_NEEDS` is the one table
-of them; :func:`check_requirements` walks it for the parsed command line, and
-:func:`require` checks one need where it is known only later (a mission's own
-``sim.engine: mujoco``).
+An option that needs an optional extra (``--plot`` matplotlib, ``--viewer`` the Rerun SDK,
+``--record`` the MCAP writer, ``--foxglove`` the Foxglove SDK, ``--engine mujoco`` MuJoCo and
+its off-screen OpenGL library, ``marknav view`` Rerun) is refused with exit 2 before the command
+starts: a run is never driven to its end only to fail at drawing its picture, and no run folder
+is left behind. :data:`OPTION_NEEDS` is the one table of them; :func:`check_requirements` walks
+it for the parsed command line, and :func:`require` checks one need where it is known only later
+(a mission's own ``sim.engine: mujoco``).
 
 Presence is looked up without importing (``importlib.util.find_spec``, a shared library by
 ``ctypes``), so the check costs milliseconds; the code that uses the package still turns a
@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 from marknav.core.errors import InputError
 
-__all__ = ["MATPLOTLIB", "MUJOCO", "OPTION_NEEDS", "RERUN", "Need", "check_requirements",
-           "missing", "require"]
+__all__ = ["FOXGLOVE", "MATPLOTLIB", "MCAP", "MUJOCO", "OPTION_NEEDS", "RERUN", "Need",
+           "check_requirements", "missing", "require"]
 
 
 @dataclass(frozen=True)
@@ -53,6 +53,8 @@ def _mujoco_gl() -> str | None:
 
 MATPLOTLIB = Need("matplotlib", ("matplotlib",), "pip install 'marknav[plot]'")
 RERUN = Need("the Rerun SDK", ("rerun",), "pip install 'marknav[viewer]'")
+MCAP = Need("the MCAP writer", ("mcap", "mcap_ros2"), "pip install 'marknav[record]'")
+FOXGLOVE = Need("the Foxglove SDK", ("foxglove", "mcap_ros2"), "pip install 'marknav[foxglove]'")
 MUJOCO = Need("MuJoCo", ("mujoco",), "pip install 'marknav[mujoco]'", system=_mujoco_gl)
 
 
@@ -80,7 +82,8 @@ def require(need: Need, option: str) -> None:
 OPTION_NEEDS: tuple[tuple[str | None, str, Callable[[object], bool], str, Need], ...] = (
     (None, "plot", lambda v: v is not None, "--plot", MATPLOTLIB),
     ("run", "viewer", bool, "--viewer", RERUN),
-    ("run", "record", lambda v: v is not None, "--record", RERUN),
+    ("run", "record", lambda v: v is not None, "--record", MCAP),
+    ("run", "foxglove", lambda v: v is not None, "--foxglove", FOXGLOVE),
     (None, "engine", lambda v: v == "mujoco", "--engine mujoco", MUJOCO),
     ("view", "run", lambda v: True, "view", RERUN),
     ("palette", "annotate", lambda v: v is not None, "--annotate", MATPLOTLIB),

@@ -31,7 +31,8 @@ def _no_run_started(monkeypatch: pytest.MonkeyPatch) -> None:
 
 @pytest.mark.parametrize(("argv", "module", "words"), [
     (["run", "slalom", "--plot", "x.png"], "matplotlib", "--plot: needs matplotlib"),
-    (["run", "slalom", "--record", "x.rrd"], "rerun", "--record: needs the Rerun SDK"),
+    (["run", "slalom", "--record", "x.mcap"], "mcap", "--record: needs the MCAP writer"),
+    (["run", "slalom", "--foxglove"], "foxglove", "--foxglove: needs the Foxglove SDK"),
     (["run", "slalom", "--engine", "mujoco"], "mujoco", "--engine mujoco: needs MuJoCo"),
     (["tune", "slalom", "--trials", "2", "--plot", "t.png"], "matplotlib",
      "--plot: needs matplotlib"),

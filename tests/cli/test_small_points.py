@@ -27,18 +27,18 @@ def test_calibrate_says_where_the_plot_went(tmp_path: Path,
     assert f"# plot: {out}" in captured.err
 
 
-def test_view_without_a_display_names_its_own_save_option(
+def test_view_without_a_display_says_where_else_to_open_the_recording(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:
     pytest.importorskip("rerun")
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     monkeypatch.setattr("sys.platform", "linux")
-    rrd = tmp_path / "run.rrd"
-    rrd.write_bytes(b"RRF2")
-    assert main(["view", str(rrd)]) == 2
+    recording = tmp_path / "run.mcap"
+    recording.write_bytes(b"\x89MCAP0\r\n")
+    assert main(["view", str(recording)]) == 2
     err = capsys.readouterr().err
-    assert "'marknav view RUN --save FILE.rrd'" in err and "--record" not in err, err
+    assert "open the recording where there is one" in err and "--record" not in err, err
 
 
 def test_help_starts_with_where_to_start(capsys: pytest.CaptureFixture[str]) -> None:

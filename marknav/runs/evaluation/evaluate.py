@@ -53,6 +53,7 @@ __all__ = [
     "percentile",
     "plot_accuracy",
     "position_accuracy",
+    "record_failures",
     "replay_command",
     "run_seed",
     "summarise",
@@ -163,3 +164,22 @@ def evaluate(
         ev.interrupted = True
         raise EvaluationStopped(ev, str(exc) or "SIGINT") from exc
     return summary(workers)
+
+
+def record_failures(ev: Evaluation, folder: Path,
+                    on_recorded: Callable[[SeedResult, Path, SeedResult], None] | None = None
+                    ) -> list[Path]:
+    """Run each failing seed of ``ev`` again (a run depends on its seed alone) with its MCAP
+    recording in ``folder/seed-N/run.mcap`` (a folder each: a rosbag2 folder holds one bag).
+    ``on_recorded(failure, path, again)`` after each; returns the recordings written."""
+    written = []
+    for failure in ev.failures:
+        path = folder / f"seed-{failure.seed}" / "run.mcap"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        again = run_seed(ev.mission_path, failure.seed, ev.max_time_s, ev.overrides,
+                         ev.engine if ev.engine_given else None, record_path=path)
+        if path.exists():
+            written.append(path)
+        if on_recorded is not None:
+            on_recorded(failure, path, again)
+    return written

@@ -64,7 +64,12 @@ class RunRequest:
     generate_world: bool = False  # ignore the mission's sim.world: generate one from the seed
     frames_hz: float | None = None  # save camera frames (JPEG) beside the event log this often
     viewer: bool = False  # stream the run to a Rerun viewer (the ``viewer`` extra)
-    record_path: Path | None = None  # save a Rerun recording (.rrd)
+    record_path: Path | None = None  # save the run as ROS 2 messages in MCAP (rosbag2 folder)
+    record_hz: float | None = None  # camera images a second in the recording (None: 5)
+    record_quality: int | None = None  # their JPEG quality 0..100 (None: 70)
+    foxglove_port: int | None = None  # serve the recording's channels live (0: a free port)
+    #: Set by :func:`execute` when ``foxglove_port`` is given: the port the server listens on.
+    foxglove_bound: int | None = None
     world_model: Any = None  # a World built in memory (a random mission's): used as it is
     #: Set once :func:`execute` (or :func:`write_interrupted`) began writing the report and the
     #: log: a signal that ends the command after that needs no other report.
@@ -401,12 +406,14 @@ def _recorder(req: RunRequest, root: py_trees.behaviour.Behaviour, env: Environm
     from marknav.runs.views.display import make_view
 
     sinks: list[Any] = []
-    if req.viewer or req.record_path is not None:
+    if req.viewer:
         from marknav.runs.views.viewer import RECORD_FRAMES_HZ, RerunSink
 
-        sinks.append(RerunSink(req.mission, getattr(env, "world", None), spawn=req.viewer,
-                               path=req.record_path,
+        sinks.append(RerunSink(req.mission, getattr(env, "world", None), spawn=True,
                                frames_hz=req.frames_hz or RECORD_FRAMES_HZ))
+    recording = _ros2_recording(req, root, env)
+    if recording is not None:
+        sinks.append(recording)
     title = f"marknav run {req.mission.name}"
     if req.realtime is None and req.robot == "sim":
         title += " · real time (--fast: full speed)"
@@ -417,6 +424,36 @@ def _recorder(req: RunRequest, root: py_trees.behaviour.Behaviour, env: Environm
     return Recorder(root, env, events, mission=mission, view=view, sinks=sinks,
                     frames_hz=req.frames_hz,
                     finish=lambda report: _fill_ground_truth(mission, env, report))
+
+
+def _ros2_recording(req: RunRequest, root: py_trees.behaviour.Behaviour,
+                    env: Environment) -> Any:
+    """The MCAP recording and the live Foxglove server, when asked for (else None); they start
+    (in the recording's own process) before the loop does."""
+    from marknav.runs.records.mcap_recording import (
+        JPEG_QUALITY,
+        RECORD_HZ,
+        McapFile,
+        OutputSpec,
+        Ros2Recording,
+    )
+    from marknav.runs.records.tree_state import TreeState
+
+    outputs: list[OutputSpec] = []
+    if req.foxglove_port is not None:
+        from marknav.runs.views.foxglove_live import FoxgloveLive
+
+        outputs.append((FoxgloveLive, {"port": req.foxglove_port}))
+    if req.record_path is not None:
+        outputs.append((McapFile, {"path": req.record_path}))
+    if not outputs:
+        return None
+    recording = Ros2Recording(
+        req.mission, getattr(env, "world", None), outputs, tree=TreeState.of_tree(root),
+        record_hz=req.record_hz or RECORD_HZ,
+        jpeg_quality=JPEG_QUALITY if req.record_quality is None else req.record_quality)
+    req.foxglove_bound = recording.port
+    return recording
 
 
 def _classify(root: py_trees.behaviour.Behaviour) -> tuple[bool, str]:

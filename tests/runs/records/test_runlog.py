@@ -1,8 +1,8 @@
-"""The complete run log, replay and the Rerun recording, on one real simulated slalom run.
+"""The complete run log and replay, on one real simulated slalom run.
 
 The run's tree statuses are read straight from the py_trees nodes after every tick (not through
 the recorder's own capture) and compared with what the log alone rebuilds; the plot is drawn
-from the log; the Rerun recording is read back with Rerun's own ``rerun rrd print``.
+from the log. (The run's MCAP recording: tests/runs/records/test_mcap_recording.py.)
 """
 
 from __future__ import annotations
@@ -10,7 +10,6 @@ from __future__ import annotations
 import json
 import os
 import re
-import shutil
 import subprocess
 import sys
 from collections import Counter
@@ -33,8 +32,7 @@ SLALOM = ROOT / "missions" / "slalom.yaml"
 
 @pytest.fixture(scope="module")
 def slalom_run(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
-    """One slalom run with a log, saved frames (2 Hz) and a Rerun recording."""
-    pytest.importorskip("rerun")
+    """One slalom run with a log and saved frames (2 Hz)."""
     folder = tmp_path_factory.mktemp("run")
     live: list[tuple[list[str], list[str]]] = []
     original = runlog.Recorder.tick
@@ -51,8 +49,7 @@ def slalom_run(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     try:
         result = execute(RunRequest(
             mission=load_mission(str(SLALOM)), report_path=folder / "report.json",
-            events_path=folder / "report.events.jsonl", frames_hz=2.0,
-            record_path=folder / "run.rrd"))
+            events_path=folder / "report.events.jsonl", frames_hz=2.0))
     finally:
         mp.undo()
     return {"folder": folder, "live": live, "result": result,
@@ -142,71 +139,10 @@ def test_the_plot_is_redrawn_from_the_log(slalom_run: dict[str, Any], tmp_path: 
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def _rows_per_entity(rrd: Path) -> dict[str, int]:
-    exe = shutil.which("rerun") or str(Path(sys.executable).with_name("rerun"))
-    out = subprocess.run([exe, "rrd", "print", str(rrd)], capture_output=True, text=True,
-                         check=True, env={**os.environ, "RERUN_ANALYTICS": "0"}).stdout
-    rows: Counter[str] = Counter()
-    for m in re.finditer(r"with (\d+) rows .*? - (/\S+) - data columns", out):
-        rows[m.group(2)] += int(m.group(1))
-    return dict(rows)
-
-
-def test_the_recording_has_images_at_the_frames_rate_and_every_tree_change(
-        slalom_run: dict[str, Any], tmp_path: Path) -> None:
-    rows = _rows_per_entity(slalom_run["folder"] / "run.rrd")
-    records = slalom_run["records"]
-    frames = sum(1 for r in records if r["kind"] == "frame")
-    saved = sum(1 for r in records if "image" in r)  # --frames 2: files beside the log
-    ticks = slalom_run["result"].report.ticks
-    sim_time = slalom_run["result"].report.sim_time_s
-    # --frames 2 is the recording's image rate too: the same frames as the files, and the
-    # detections drawn on each of them
-    assert rows["/camera/image"] == rows["/camera/detections"] == saved
-    assert 2.0 * sim_time - 2 <= saved <= 2.0 * sim_time + 2 < frames
-    assert rows["/map/seen"] == frames  # every frame's marks on the map
-    assert rows["/map/robot"] == rows["/map/truth"] == rows["/plots/wheels/left"] == ticks
-    # the tree text: every status change (one events row each, live) plus the panel at 2 Hz
-    status_changes = rows["/events"]
-    assert status_changes <= rows["/tree"] <= status_changes + 2.0 * sim_time + 2 < ticks
-    assert rows["/map/marks"] == rows["/map/walls"] == 1  # static
-    plans = sum(1 for k in rows if k.startswith("/map/plan/"))
-    assert plans == len(slalom_run["result"].plans)
-    # the same run converted from its log alone: the same entities, images only where saved
-    out = tmp_path / "from-log.rrd"
-    assert main(["view", str(slalom_run["folder"]), "--save", str(out)]) == 0
-    again = _rows_per_entity(out)
-    assert again["/tree"] == ticks and again["/map/seen"] == frames
-    assert again["/camera/image"] == again["/camera/detections"] == saved
-
-
-def test_a_recording_keeps_five_jpeg_frames_a_second_by_default(tmp_path: Path) -> None:
-    pytest.importorskip("rerun")
-    import py_trees
-
-    from marknav.runs.views.viewer import RECORD_FRAMES_HZ, RerunSink
-
-    mission = load_mission(str(SLALOM))
-    out = tmp_path / "five.rrd"
-    sink = RerunSink(mission, None, path=out)
-    rng = np.random.default_rng(0)
-    image = rng.integers(0, 255, (120, 160, 3), dtype=np.uint8)
-    state = TreeState.of_tree(py_trees.behaviours.Success(name="Done"))
-    for n in range(80):  # 4 s at 20 Hz, one frame per tick
-        sink.tick(n / 20.0, {"n": n, "panel": {}}, [({"marks": []}, image)], state)
-    sink.close()
-    assert RECORD_FRAMES_HZ == 5.0
-    assert sink.frames == 80 and sink.images == 20
-    rows = _rows_per_entity(out)
-    assert rows["/camera/image"] == 20
-    assert b"image/jpeg" in out.read_bytes()
-
-
 def test_without_the_extra_the_viewer_options_exit_2_naming_it(
         monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
     monkeypatch.setitem(sys.modules, "rerun", None)  # import rerun -> ImportError
-    for argv in (["run", str(SLALOM), "--viewer"], ["run", str(SLALOM), "--record", "x.rrd"],
-                 ["view", "x.rrd"]):
+    for argv in (["run", str(SLALOM), "--viewer"], ["view", "x.mcap"]):
         assert main(argv) == 2
         err = capsys.readouterr().err
         assert "pip install 'marknav[viewer]'" in err and "Traceback" not in err
