@@ -78,6 +78,11 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                         "waypoint)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", dest="overrides",
                    type=set_item, help=SET_HELP + "; recorded in the report")
+    # -- Groot2's live monitor ---------------------------------------------------------------
+    from marknav.cli.groot2_option import GROOT2_HELP
+
+    p.add_argument("--groot2", nargs="?", const="1667", metavar="[HOST:]PORT", help=GROOT2_HELP)
+    # ------------------------------------------------------------------------------------------
     p.set_defaults(func=run)
 
 
@@ -95,6 +100,7 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from marknav.cli.groot2_option import groot2_address
     from marknav.core.errors import InputErrors
     from marknav.core.outputs import printable
     from marknav.missions.examples import mission_path
@@ -117,6 +123,7 @@ def run(args: argparse.Namespace) -> int:
         if args.viewer:
             require_display("--viewer")
     check_outputs(args)
+    args.groot2 = groot2_address(args.groot2)  # (host, port) or None
     overrides = parse_overrides(args.overrides)
     args.mission = mission_path(args.mission)
     world = None if args.world in (None, "generate", "random") else args.world
@@ -222,4 +229,5 @@ def _request(args: argparse.Namespace, mission: Mission) -> RunRequest:
         events_path=events_path, plot_path=args.plot, seed=args.seed,
         realtime=args.realtime, max_time_s=args.max_time, frames_hz=args.frames,
         viewer=args.viewer, record_path=args.record, engine=args.engine,
+        groot2=args.groot2,
     )

@@ -68,6 +68,7 @@ class RunRequest:
     #: log: a signal that ends the command after that needs no other report.
     finishing: bool = False
     engine: str | None = None  # simulator engine (None: the mission's sim.engine, else builtin)
+    groot2: tuple[str, int] | None = None  # serve the live tree to Groot2 on (host, port)
 
 
 @dataclass
@@ -392,6 +393,8 @@ def _recorder(req: RunRequest, root: py_trees.behaviour.Behaviour, env: Environm
         sinks.append(RerunSink(req.mission, getattr(env, "world", None), spawn=req.viewer,
                                path=req.record_path,
                                frames_hz=req.frames_hz or RECORD_FRAMES_HZ))
+    if req.groot2 is not None:
+        sinks.append(_groot2_server(req, root))
     view = make_view(req.out, req.tree_style, title=f"marknav run {req.mission.name}")
     if view is None and not sinks and events.path is None:
         return None
@@ -399,6 +402,21 @@ def _recorder(req: RunRequest, root: py_trees.behaviour.Behaviour, env: Environm
     return Recorder(root, env, events, mission=mission, view=view, sinks=sinks,
                     frames_hz=req.frames_hz,
                     finish=lambda report: _fill_ground_truth(mission, env, report))
+
+
+def _groot2_server(req: RunRequest, root: py_trees.behaviour.Behaviour) -> Any:
+    """Groot2's server for the live tree (``--groot2``); a port in use is the user's input."""
+    import zmq
+
+    from marknav.runs.views.groot2 import Groot2Server
+
+    assert req.groot2 is not None
+    host, port = req.groot2
+    try:
+        return Groot2Server.for_tree(root, req.mission.name, host=host, port=port)
+    except zmq.ZMQError as exc:
+        raise InputError(f"cannot serve Groot2 on {host}:{port} (and {port + 1}): {exc}",
+                         field="--groot2") from None
 
 
 def _classify(root: py_trees.behaviour.Behaviour) -> tuple[bool, str]:
