@@ -61,9 +61,9 @@ B_FRAMES = 2
 
 def status_bytes(uids: list[bytes], status: list[str]) -> bytes:
     """The ``S`` payload: uid then status code, 3 bytes a node."""
-    codes = STATUS_CODES
-    return b"".join(u + bytes((codes.get(s, SKIPPED),)) for u, s in zip(uids, status,
-                                                                          strict=True))
+    buf = bytearray(b"".join(u + b"\0" for u in uids))
+    buf[2::3] = bytes([STATUS_CODES.get(s, SKIPPED) for s in status])
+    return bytes(buf)
 
 
 def _blackboard(tree_id: str) -> dict[str, Any]:
@@ -100,10 +100,17 @@ class Groot2Server:
         self.uuid = uuid.uuid4().bytes
         self._uids = [struct.pack("<H", i) for i in range(1, n_nodes + 1)]
         self._status = status_bytes(self._uids, ["INVALID"] * n_nodes)
+        self._template = bytearray(self._status)
+        self._ticks = 0
+        #: The last ``B`` reply and the tick it was made in: several requests in one tick
+        #: (a Groot2 polling faster than the loop ticks) read the blackboard once.
+        self._dumped: tuple[int, bytes, bytes] | None = None
         self._blackboard = blackboard
         self._last_request = time.monotonic() - HEARTBEAT_S
         self.requests = 0
         self.errors = 0
+        #: CPU seconds the server's thread used, set when it ends.
+        self.thread_cpu_s = 0.0
         self._stop = threading.Event()
         self._ctx = zmq.Context()
         # A ROUTER socket, not REP: it answers each request by its sender's identity, so a
@@ -144,7 +151,11 @@ class Groot2Server:
     def update(self, status: list[str]) -> None:
         """The tree's statuses after a tick (pre-order, as :class:`TreeState` holds them):
         ~5 µs for a 55-node tree, so it is done every tick, watched or not."""
-        self._status = status_bytes(self._uids, status)
+        codes = STATUS_CODES
+        buf = self._template
+        buf[2::3] = bytes([codes.get(s, SKIPPED) for s in status])
+        self._status = bytes(buf)
+        self._ticks += 1
 
     def tick(self, now: float, record: Any, frames: Any, state: TreeState) -> None:
         self.update(state.status)
@@ -158,6 +169,12 @@ class Groot2Server:
 
     # -- the server thread -------------------------------------------------------------------
     def _serve(self) -> None:
+        try:
+            self._loop()
+        finally:
+            self.thread_cpu_s = time.thread_time()
+
+    def _loop(self) -> None:
         import zmq
 
         while not self._stop.is_set():
@@ -203,8 +220,13 @@ class Groot2Server:
     def _dump(self, names: bytes) -> bytes:
         import msgpack
 
+        ticks, cached = self._ticks, self._dumped
+        if cached is not None and cached[0] == ticks and cached[1] == names:
+            return cached[2]
         out: dict[str, Any] = {}
         for name in names.decode("utf-8", "replace").split(";"):
             if name == self.tree_id:
                 out[name] = self._blackboard(name)
-        return bytes(msgpack.packb(out))
+        packed = bytes(msgpack.packb(out))
+        self._dumped = (ticks, names, packed)
+        return packed
