@@ -170,9 +170,12 @@ class TreeCoverage:
         """A table, one line per node, indented by depth: ticks, running / success / failure
         counts, and what never happened. ``top``: only paths under it."""
         lines = [f"{'node':60s} {'ticks':>7s} {'run':>6s} {'ok':>6s} {'fail':>6s}"]
+        groups: dict[str, list[NodeCoverage]] = {}  # by root, in the order first ticked
         for path, c in self.nodes.items():
-            if top is not None and not path.startswith(top):
-                continue
+            if top is None or path.startswith(top):
+                groups.setdefault(path.split("/", 1)[0], []).append(c)
+        for c in (c for group in groups.values() for c in group):
+            path = c.path
             depth = path.count("/")
             name = "  " * depth + path.rsplit("/", 1)[-1]
             st = c.statuses
