@@ -35,6 +35,7 @@ from marknav.cli import (
     schema,
     serve_camera,
     serve_robot,
+    serve_tree,
     sim_robot,
     tree,
     tune,
@@ -48,7 +49,7 @@ log = logging.getLogger(__name__)
 COMMANDS: tuple[ModuleType, ...] = (
     run, validate, tree, evaluate, replay, examples, tune, random_mission, bench, detect,
     palette, calibrate, calibrate_camera, calibrate_odometry, sim_robot, schema, serve_camera,
-    serve_robot, completion,
+    serve_robot, serve_tree, completion,
 )
 
 
