@@ -28,6 +28,8 @@ versions) once at the top level, then a section per benchmark:
 - ``mujoco`` (not part of ``all``: the ``mujoco`` extra) — MuJoCo's camera in frames per second
   at 320×240 and 640×480 with and without shadows, against the built-in renderer
   (:func:`marknav.runs.benchmarks.engines.bench_mujoco`);
+- ``groot2`` (not part of ``all``: a minute, and the ``groot2`` extra) — what Groot2 watching a
+  run costs the loop (:func:`marknav.runs.benchmarks.groot2.bench_groot2`);
 - ``dask`` (not part of ``all``: minutes, and the ``cluster`` extra) — an evaluation's
   throughput on a local Dask cluster of one worker, then two, cluster start excluded
   (:func:`marknav.runs.benchmarks.cluster.bench_dask`).
@@ -130,6 +132,15 @@ def _safety(quick: bool) -> dict[str, Any]:
     return bench_safety(n=200, e2e_n=50) if quick else bench_safety()
 
 
+def _groot2(quick: bool) -> dict[str, Any]:
+    from marknav.cli.groot2_option import groot2_address
+
+    groot2_address("1667")  # no extra: exit 2 naming it
+    from marknav.runs.benchmarks.groot2 import bench_groot2
+
+    return bench_groot2(max_time_s=10.0, repeats=1) if quick else bench_groot2()
+
+
 def _dask(quick: bool) -> dict[str, Any]:
     from marknav.runs.benchmarks.cluster import bench_dask
 
@@ -148,6 +159,9 @@ BENCHMARKS: dict[str, Benchmark] = {b.name: b for b in (
               _render),
     Benchmark("mujoco", "MuJoCo camera fps at 320×240 and 640×480, shadows on and off, against "
               "the built-in renderer (extra: mujoco; not in all)", _mujoco, in_all=False),
+    Benchmark("groot2", "what a Groot2 client polling at 100 Hz costs the run loop: loop and "
+              "server CPU, ticks while polled and not (extra: groot2; not in all)", _groot2,
+              in_all=False),
     Benchmark("dask", "evaluation throughput on a local Dask cluster, 1 then 2 workers, "
               "cluster start excluded (8 slalom runs each; not in all)", _dask, in_all=False),
     Benchmark("recording", "the slalom's MCAP size; loop speed with --record and with "

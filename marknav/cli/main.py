@@ -35,6 +35,7 @@ from marknav.cli import (
     schema,
     serve_camera,
     serve_robot,
+    serve_tree,
     sim_robot,
     tree,
     tune,
@@ -62,7 +63,7 @@ MISSION_ARGUMENTS: tuple[tuple[str | None, str], ...] = ((None, "mission"), ("pa
 COMMANDS: tuple[ModuleType, ...] = (
     run, validate, tree, evaluate, replay, examples, tune, random_mission, bench, detect,
     palette, calibrate, calibrate_camera, calibrate_odometry, sim_robot, schema, serve_camera,
-    serve_robot, completion,
+    serve_robot, serve_tree, completion,
 )
 
 

@@ -32,6 +32,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                    help="print every status change (time, tick, node, old -> new) and exit")
     p.add_argument("--plot", metavar="FILE.png", type=Path,
                    help="draw the top-down picture of the run from the log")
+    p.add_argument("--btlog", metavar="FILE.btlog", type=Path,
+                   help="write the run's tree history as Groot2's replay file "
+                        "(BehaviorTree.CPP 4's .btlog: every status change at its run time)")
     p.add_argument("--tree", default="auto", choices=("auto", "ascii", "unicode"),
                    help="tree symbols (default auto)")
     p.set_defaults(func=replay)
@@ -65,10 +68,19 @@ def replay(args: argparse.Namespace) -> int:
     from marknav.runs.records.runlog import Replay, read_log
     from marknav.runs.views.display import resolve_style
 
+    if args.btlog is not None:
+        from marknav.core.outputs import check_output_file
+
+        if args.btlog.suffix != ".btlog":
+            raise InputError("Groot2 opens replay files named *.btlog", field="--btlog")
+        check_output_file(args.btlog, option="--btlog")
     records = read_log(args.run)
     run = Replay(records)
     style = resolve_style(args.tree, sys.stdout)
     did = False
+    if args.btlog is not None:
+        _write_btlog(args.run, records, args.btlog)
+        did = True
     if args.plot is not None:
         from marknav.sim.plot import plot_log
 
@@ -89,6 +101,19 @@ def replay(args: argparse.Namespace) -> int:
                          "--plot FILE", field="RUN")
     _interactive(run, style)
     return 0
+
+
+def _write_btlog(run: str, records: list[dict[str, object]], path: Path) -> None:
+    from marknav.runs.records import btlog
+    from marknav.runs.records.runlog import resolve_log
+
+    log = btlog.from_run_log(records, log_mtime_s=resolve_log(run).stat().st_mtime)
+    try:
+        btlog.write(path, log)
+    except OSError as exc:
+        raise InputError(f"cannot write: {exc}", file=str(path)) from None
+    print(f"btlog: {path} ({len(log.transitions)} status changes; open it in Groot2's Log "
+          "Replay)")
 
 
 def _print_changes(run: object) -> None:

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 from marknav.core.errors import InputError
 
-__all__ = ["FOXGLOVE", "MATPLOTLIB", "MCAP", "MUJOCO", "OPTION_NEEDS", "RERUN", "Need",
+__all__ = ["FOXGLOVE", "GROOT2", "MATPLOTLIB", "MCAP", "MUJOCO", "OPTION_NEEDS", "RERUN", "Need",
            "check_requirements", "missing", "require"]
 
 
@@ -54,6 +54,7 @@ def _mujoco_gl() -> str | None:
 MATPLOTLIB = Need("matplotlib", ("matplotlib",), "pip install 'marknav[plot]'")
 RERUN = Need("the Rerun SDK", ("rerun",), "pip install 'marknav[viewer]'")
 MCAP = Need("the MCAP writer", ("mcap", "mcap_ros2"), "pip install 'marknav[record]'")
+GROOT2 = Need("pyzmq", ("zmq",), "pip install 'marknav[groot2]'")
 FOXGLOVE = Need("the Foxglove SDK", ("foxglove", "mcap_ros2"), "pip install 'marknav[foxglove]'")
 MUJOCO = Need("MuJoCo", ("mujoco",), "pip install 'marknav[mujoco]'", system=_mujoco_gl)
 
@@ -84,6 +85,7 @@ OPTION_NEEDS: tuple[tuple[str | None, str, Callable[[object], bool], str, Need],
     ("run", "viewer", bool, "--viewer", RERUN),
     ("run", "record", lambda v: v is not None, "--record", MCAP),
     ("run", "foxglove", lambda v: v is not None, "--foxglove", FOXGLOVE),
+    ("run", "groot2", lambda v: v is not None, "--groot2", GROOT2),
     (None, "engine", lambda v: v == "mujoco", "--engine mujoco", MUJOCO),
     ("view", "run", lambda v: True, "view", RERUN),
     ("palette", "annotate", lambda v: v is not None, "--annotate", MATPLOTLIB),

@@ -83,6 +83,11 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--set", action="append", metavar="KEY=VALUE", dest="overrides",
                    type=set_item, help=SET_HELP + "; recorded in the report")
     _recording_options(p)
+    # -- Groot2's live monitor ---------------------------------------------------------------
+    from marknav.cli.groot2_option import GROOT2_HELP
+
+    p.add_argument("--groot2", nargs="?", const="1667", metavar="[HOST:]PORT", help=GROOT2_HELP)
+    # ------------------------------------------------------------------------------------------
     p.set_defaults(func=run)
 
 
@@ -166,6 +171,7 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from marknav.cli.groot2_option import groot2_address
     from marknav.cli.requirements import MUJOCO, require
     from marknav.core.errors import InputErrors
     from marknav.core.outputs import printable
@@ -189,6 +195,7 @@ def run(args: argparse.Namespace) -> int:
         require_display("--viewer")
     _check_recording(args)
     check_outputs(args)
+    args.groot2 = groot2_address(args.groot2)  # (host, port) or None
     overrides = parse_overrides(args.overrides)
     args.mission = mission_path(args.mission)
     world = None if args.world in (None, "generate", "random") else args.world
@@ -298,4 +305,5 @@ def _request(args: argparse.Namespace, mission: Mission) -> RunRequest:
         viewer=args.viewer, record_path=_record_path(args, report_path), engine=args.engine,
         record_hz=args.record_hz, record_quality=args.record_quality,
         foxglove_port=args.foxglove,
+        groot2=args.groot2,
     )

@@ -24,7 +24,8 @@ def _script(shell: str, capsys: pytest.CaptureFixture[str]) -> str:
     (["marknav", "run", "slalom", "--max-t"], ["--max-time"]),
     (["marknav", "run", "slalom", "--tree", ""], ["auto", "ascii", "unicode", "none"]),
     (["marknav", "bench", ""],
-     ["vision", "tree", "loop", "safety", "render", "mujoco", "dask", "recording", "all"]),
+     ["vision", "tree", "loop", "safety", "render", "mujoco", "groot2", "dask", "recording",
+      "all"]),
     (["marknav", "completion", "f"], ["fish"]),
 ])
 def test_bash_completes_commands_options_values_and_examples(

@@ -75,6 +75,7 @@ class RunRequest:
     #: log: a signal that ends the command after that needs no other report.
     finishing: bool = False
     engine: str | None = None  # simulator engine (None: the mission's sim.engine, else builtin)
+    groot2: tuple[str, int] | None = None  # serve the live tree to Groot2 on (host, port)
 
 
 @dataclass
@@ -414,6 +415,8 @@ def _recorder(req: RunRequest, root: py_trees.behaviour.Behaviour, env: Environm
     recording = _ros2_recording(req, root, env)
     if recording is not None:
         sinks.append(recording)
+    if req.groot2 is not None:
+        sinks.append(_groot2_server(req, root))
     title = f"marknav run {req.mission.name}"
     if req.realtime is None and req.robot == "sim":
         title += " · real time (--fast: full speed)"
@@ -454,6 +457,19 @@ def _ros2_recording(req: RunRequest, root: py_trees.behaviour.Behaviour,
         jpeg_quality=JPEG_QUALITY if req.record_quality is None else req.record_quality)
     req.foxglove_bound = recording.port
     return recording
+def _groot2_server(req: RunRequest, root: py_trees.behaviour.Behaviour) -> Any:
+    """Groot2's server for the live tree (``--groot2``); a port in use is the user's input."""
+    import zmq
+
+    from marknav.runs.views.groot2 import Groot2Server
+
+    assert req.groot2 is not None
+    host, port = req.groot2
+    try:
+        return Groot2Server.for_tree(root, req.mission.name, host=host, port=port)
+    except zmq.ZMQError as exc:
+        raise InputError(f"cannot serve Groot2 on {host}:{port} (and {port + 1}): {exc}",
+                         field="--groot2") from None
 
 
 def _classify(root: py_trees.behaviour.Behaviour) -> tuple[bool, str]:

@@ -32,6 +32,7 @@ import json
 import logging
 import math
 import stat
+import time
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -44,6 +45,7 @@ from marknav.behaviours import keys
 from marknav.core import signals
 from marknav.core.errors import InputError
 from marknav.core.inputfile import MAX_LOG_BYTES, read_bytes, stat_path
+from marknav.runs.records.btcpp import tree_xml
 from marknav.runs.records.report import EventLog, RunReport
 from marknav.runs.records.tree_state import SUCCESS, TreeState
 
@@ -236,6 +238,9 @@ class Recorder:
         if not self.logging:
             return
         info: dict[str, Any] = {"tree": self.state.structure()}
+        # Groot2's view of the same tree, and the wall-clock start: 'replay --btlog' needs both.
+        info["btcpp_xml"] = tree_xml(self.root, getattr(self.mission, "name", "MainTree"))
+        info["epoch_us"] = round((time.time() - now) * 1_000_000)
         m = self.mission
         if m is not None:
             from marknav.sim.builtin_camera import mark_bgr
