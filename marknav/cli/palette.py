@@ -135,18 +135,8 @@ def _detector_agreement(frames: Sequence[_Frame], marks_per_frame: Sequence[Sequ
 
 
 def run(args: argparse.Namespace) -> int:
-    import numpy as np
-
     from marknav.core.outputs import printable
-    from marknav.vision.palette_pictures import margins_of
-    from marknav.vision.palette_teach import (
-        check_palette,
-        find_round_marks,
-        parse_colours,
-        propose_palette,
-        scene_hues,
-        yaml_block,
-    )
+    from marknav.vision.palette_teach import check_palette, find_round_marks, parse_colours
 
     if args.colours is None and args.check is None:
         raise InputError("say which colours to teach (--colours red,green,blue) or which "
@@ -176,29 +166,7 @@ def run(args: argparse.Namespace) -> int:
     #: what --annotate draws: each mark's colour, the palette, its margins, whose it is
     pictures: tuple[Any, ...] | None = None
     if requests is not None:
-        try:
-            clutter = np.mean([scene_hues(fr.image, ms)
-                               for fr, ms in zip(frames, found, strict=True)], axis=0)
-            proposal = propose_palette(marks, requests, max_margin=args.max_margin,
-                                       clutter=clutter)
-        except ValueError as exc:
-            raise InputError(f"{exc} (photograph every colour; marks must be round, saturated "
-                             "and at least 5 px in radius)", field="--colours") from None
-        labels = _split(list(proposal.labels), found)
-        for entry, names in zip(result["images"], labels, strict=True):
-            for row, name in zip(entry["marks"], names, strict=True):
-                row["colour"] = name
-        agreement = _detector_agreement(frames, found, labels, proposal.palette())
-        result.update(
-            colours=[_colour_dict(c) for c in proposal.colours],
-            gaps=[_gap_dict(g) for g in proposal.gaps],
-            warnings=[*proposal.warnings, *narrow_margins(proposal)], detector=agreement,
-            yaml=yaml_block(proposal))
-        out += _marks_text(frames, found, labels)
-        out += _proposal_text(proposal, agreement)
-        pictures = (labels, proposal.palette(), margins_of(proposal.gaps), "taught")
-        out.append("# paste into your mission (replacing marks.colours):")
-        out.append(yaml_block(proposal))
+        pictures = _teach(args, requests, frames, found, result, out)
     if mission is not None:
         palette = mission.palette()
         checks, given = check_palette(marks, palette)
@@ -226,6 +194,42 @@ def run(args: argparse.Namespace) -> int:
                             f"({sum(c.in_other for c in checks)} in another colour's range, "
                             f"{sum(c.in_none for c in checks)} in none)")
     return 0
+
+
+def _teach(args: argparse.Namespace, requests: Any, frames: Sequence[_Frame],
+           found: Sequence[Sequence[Any]], result: dict[str, Any],
+           out: list[str]) -> tuple[Any, ...]:
+    """``--colours``: propose the palette; its figures into ``result`` and its lines into
+    ``out``; what ``--annotate`` draws of it."""
+    import numpy as np
+
+    from marknav.vision.palette_pictures import margins_of
+    from marknav.vision.palette_teach import propose_palette, scene_hues, yaml_block
+
+    marks = [m for ms in found for m in ms]
+    try:
+        clutter = np.mean([scene_hues(fr.image, ms)
+                           for fr, ms in zip(frames, found, strict=True)], axis=0)
+        proposal = propose_palette(marks, requests, max_margin=args.max_margin,
+                                   clutter=clutter)
+    except ValueError as exc:
+        raise InputError(f"{exc} (photograph every colour; marks must be round, saturated "
+                         "and at least 5 px in radius)", field="--colours") from None
+    labels = _split(list(proposal.labels), found)
+    for entry, names in zip(result["images"], labels, strict=True):
+        for row, name in zip(entry["marks"], names, strict=True):
+            row["colour"] = name
+    agreement = _detector_agreement(frames, found, labels, proposal.palette())
+    result.update(
+        colours=[_colour_dict(c) for c in proposal.colours],
+        gaps=[_gap_dict(g) for g in proposal.gaps],
+        warnings=[*proposal.warnings, *narrow_margins(proposal)], detector=agreement,
+        yaml=yaml_block(proposal))
+    out += _marks_text(frames, found, labels)
+    out += _proposal_text(proposal, agreement)
+    out.append("# paste into your mission (replacing marks.colours):")
+    out.append(yaml_block(proposal))
+    return (labels, proposal.palette(), margins_of(proposal.gaps), "taught")
 
 
 def write_pictures(folder: Path, frames: Sequence[_Frame], found: Sequence[Sequence[Any]],

@@ -63,3 +63,24 @@ def test_run_paces_by_default_and_takes_fast_or_realtime(
         main(["run", "slalom", "--fast", "--realtime"])
     assert exc.value.code == 2
     assert "not allowed with argument" in capsys.readouterr().err
+
+
+def test_the_tune_plot_ticks_whole_trial_numbers(tmp_path: Path,
+                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    pytest.importorskip("matplotlib")
+    import matplotlib.pyplot as plt
+
+    from marknav.runs.evaluation.tune import Param, TrialSummary, TuneResult, plot_trials
+
+    kept: list[object] = []
+    monkeypatch.setattr(plt, "close", lambda fig=None: kept.append(fig))
+    trials = [TrialSummary(number=n, params={"navigation.clearance_mm": 300.0 + 10 * n},
+                           value=40.0 - n, success_rate=1.0, successes=2, runs=2,
+                           median_time_s=40.0 - n) for n in range(3)]  # few: quarters before
+    result = TuneResult("missions/slalom.yaml", "memory", "t", trials, trials[-1], 3)
+    plot_trials(result, [Param("navigation.clearance_mm", 280, 450)], tmp_path / "tune.png")
+    fig = kept[0]
+    fig.canvas.draw()  # type: ignore[attr-defined]
+    ticks = fig.axes[0].get_xticks()  # type: ignore[attr-defined]
+    inside = [t for t in ticks if -0.5 <= t <= 2.5]
+    assert inside and all(float(t).is_integer() for t in inside), ticks
