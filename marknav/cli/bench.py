@@ -216,7 +216,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
             f"{b.name}: {b.help}" for b in BENCHMARKS.values()) + "; all: every one but dask).",
     )
     p.add_argument("which", nargs="?", default="all", choices=[*BENCHMARKS, "all"],
-                   help="which benchmark (default all)")
+                   metavar="WHICH",
+                   help=f"which benchmark: {', '.join(BENCHMARKS)} or all (default all)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--quick", action="store_true",
                    help="small sizes: a smoke test, noisier figures")

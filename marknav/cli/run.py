@@ -97,8 +97,7 @@ def _recording_options(p: argparse.ArgumentParser) -> None:
     from marknav.runs.records.mcap_recording import JPEG_QUALITY, RECORD_HZ
     from marknav.runs.views.foxglove_live import DEFAULT_PORT
 
-    g = p.add_argument_group("recording and live view (ROS 2 messages: Foxglove, Lichtblick, "
-                             "Rerun, rosbags, ros2 bag)")
+    g = p.add_argument_group("recording and live view (ROS 2 messages: Foxglove, Rerun, ros2 bag)")
     g.add_argument("--record", nargs="?", const="", metavar="FILE.mcap",
                    help="save the run as ROS 2 messages in an MCAP file, with the rosbag2 "
                         "metadata.yaml beside it (default file: run.mcap in the run's folder; "
