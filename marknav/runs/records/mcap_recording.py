@@ -558,6 +558,7 @@ class Ros2Recording:
         self._closed = False
         self._batch: list[_Tick] = []
         self._batch_t: float | None = None
+        self._last_n: int | None = None
         setup = _setup(mission, world, list(outputs), tree, jpeg_quality,
                        time.time_ns() if start_ns is None else start_ns)
         setup.parent_pid = os.getpid()
@@ -581,6 +582,9 @@ class Ros2Recording:
     # -- the sink interface (called by the recorder on the loop's thread) --------------------
     def tick(self, now: float, record: dict[str, Any], frames: list[tuple[dict[str, Any], Any]],
              state: TreeState) -> None:
+        n = record.get("n")
+        if n is not None and n == self._last_n:
+            return  # given again after a signal cut its first hand-over short
         kept = []
         for fr, image in frames:
             keep = image is not None and (
@@ -595,6 +599,7 @@ class Ros2Recording:
         self.frames += len(frames)
         self.ticks += 1
         self._batch.append(_Tick(now, record, kept, list(state.status), list(state.message)))
+        self._last_n = n
         if self._batch_t is None:
             self._batch_t = now
         if now - self._batch_t >= BATCH_S - 1e-9:
