@@ -7,8 +7,8 @@ shared machine then falls on all three alike); each figure is the median of its 
 - ``handover_share_of_loop_cpu``: the slowdown measured where it happens — the CPU time the
   loop spends handing each tick to the recording (the recorder's call and the queue's pickling
   on its feeder thread, thread CPU time) over the loop's own CPU time without it;
-- ``loop_cpu_s``: the CPU time of marknav's own process; ``recording_cpu_s``: of the
-  recording's process (on the other core);
+- ``loop_cpu_s``: the CPU time of marknav's own process, ``loop_thread_cpu_s`` of its main
+  thread alone (the loop); ``recording_cpu_s``: of the recording's process (on the other core);
 - ``wall_s`` and ``cycle_ms_p50`` (the control cycle's processing time: poll + tick): wall
   clock, which a loaded machine disturbs most.
 
@@ -155,12 +155,13 @@ def _one(mission: Mission, setup: str, folder: Path, max_time_s: float,
         ready.wait(CONNECT_TIMEOUT_S)  # trying to connect before the server starts
     children0 = _children_cpu_s()
     spent: dict[str, float] = {}
-    cpu0 = time.process_time()
+    cpu0, thread0 = time.process_time(), time.thread_time()
     try:
         with _handover_timed(spent):
             report = execute(req).report
     finally:
         loop_cpu = time.process_time() - cpu0
+        loop_thread_cpu = time.thread_time() - thread0
         stop.set()
         got: dict[str, float] = {}
         if subscriber is not None:
@@ -170,6 +171,7 @@ def _one(mission: Mission, setup: str, folder: Path, max_time_s: float,
                 client[key] = client.get(key, 0) + got.get(key, 0)
     recording_cpu = _children_cpu_s() - children0 - got.get("cpu_s", 0.0)
     out = {"wall_s": report.wall_time_s, "loop_cpu_s": loop_cpu,
+           "loop_thread_cpu_s": loop_thread_cpu,
            "handover_cpu_s": spent.get("tick", 0.0) + spent.get("pickle", 0.0),
            "recording_cpu_s": recording_cpu,
            "cycle_ms_p50": float(report.tick_ms["p50"]), "sim_time_s": report.sim_time_s}
@@ -208,7 +210,8 @@ def bench_recording(*, mission: Mission | None = None, max_time_s: float = 60.0,
                            "sim_time_s": round(median("plain", "sim_time_s"), 2)}
     for setup in SETUPS:
         out[setup] = {k: round(median(setup, k), 3)
-                      for k in ("wall_s", "loop_cpu_s", "recording_cpu_s", "cycle_ms_p50")}
+                      for k in ("wall_s", "loop_cpu_s", "loop_thread_cpu_s", "recording_cpu_s",
+                                "cycle_ms_p50")}
         if setup != "plain":
             # what the loop itself does for the recording, as a share of the loop's CPU time:
             # the slowdown the recording causes, measured where it happens
@@ -223,7 +226,7 @@ def bench_recording(*, mission: Mission | None = None, max_time_s: float = 60.0,
     for setup in ("record", "foxglove"):
         out[f"{setup}_over_plain"] = {
             k: round(median(setup, k) / max(median("plain", k), 1e-9), 3)
-            for k in ("wall_s", "loop_cpu_s", "cycle_ms_p50")}
+            for k in ("wall_s", "loop_cpu_s", "loop_thread_cpu_s", "cycle_ms_p50")}
         # Interference from other work only ever adds CPU time: the least of the repeats is
         # the figure least disturbed by a shared machine.
         least = min(r["loop_cpu_s"] for r in runs[setup])

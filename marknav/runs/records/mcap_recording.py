@@ -558,6 +558,7 @@ class Ros2Recording:
         self._closed = False
         self._batch: list[_Tick] = []
         self._batch_t: float | None = None
+        self._last_n: int | None = None
         setup = _setup(mission, world, list(outputs), tree, jpeg_quality,
                        time.time_ns() if start_ns is None else start_ns)
         setup.parent_pid = os.getpid()
@@ -581,6 +582,18 @@ class Ros2Recording:
     # -- the sink interface (called by the recorder on the loop's thread) --------------------
     def tick(self, now: float, record: dict[str, Any], frames: list[tuple[dict[str, Any], Any]],
              state: TreeState) -> None:
+        """Take one tick (whole: a signal is raised once it is taken, so a tick is never half
+        in a batch, nor a batch handed over twice)."""
+        from marknav.core import signals
+
+        with signals.deferred():
+            self._take(now, record, frames, state)
+
+    def _take(self, now: float, record: dict[str, Any],
+              frames: list[tuple[dict[str, Any], Any]], state: TreeState) -> None:
+        n = record.get("n")
+        if n is not None and n == self._last_n:
+            return  # given again after a signal cut its first hand-over short
         kept = []
         for fr, image in frames:
             keep = image is not None and (
@@ -595,23 +608,27 @@ class Ros2Recording:
         self.frames += len(frames)
         self.ticks += 1
         self._batch.append(_Tick(now, record, kept, list(state.status), list(state.message)))
+        self._last_n = n
         if self._batch_t is None:
             self._batch_t = now
         if now - self._batch_t >= BATCH_S - 1e-9:
             self._flush()
 
     def _flush(self) -> None:
-        if self._batch:
-            self._inbox.put(self._batch)
-        self._batch, self._batch_t = [], None
+        batch, self._batch, self._batch_t = self._batch, [], None
+        if batch:
+            self._inbox.put(batch)
 
     def close(self) -> None:
         """Write what is queued and close the outputs (the file's summary, metadata.yaml)."""
         if self._closed:
             return
         self._closed = True
-        self._flush()
-        self._inbox.put(None)
+        from marknav.core import signals
+
+        with signals.deferred():
+            self._flush()
+            self._inbox.put(None)
         try:
             reply = self._reply(CLOSE_TIMEOUT_S, "finish")
         finally:

@@ -167,11 +167,8 @@ class Recorder:
         wheels."""
         if self._shown is None:
             return
-        now, panel, record, frames = self._shown
-        self._shown = None
-        if record is not None:
-            for sink in self.sinks:
-                sink.tick(now, record, frames, self.state)
+        panel = self._shown[1]
+        self._feed_sinks()
         if self.view is not None:
             self.view.update(self.state, panel)
 
@@ -179,6 +176,9 @@ class Recorder:
         """Before the runner's ``end`` record: the report, with ground truth when there is some."""
         if self.view is not None:
             self.view.close()
+        # A signal between a tick's records and its showing: the recording still gets it (a
+        # sink that already had it, cut short inside, knows the tick by its number).
+        self._feed_sinks()
         extra = self._finish(report) if self._finish is not None else {}
         if self.logging:
             self.events.write(report.sim_time_s, "report", report=report.to_dict(), **extra)
@@ -187,6 +187,16 @@ class Recorder:
                 sink.close()
             except Exception:
                 log.exception("closing %s failed", sink)
+
+    def _feed_sinks(self) -> None:
+        """The last tick to the sinks, once: ``_shown`` is cleared only when all have it."""
+        if self._shown is None:
+            return
+        now, _panel, record, frames = self._shown
+        if record is not None:
+            for sink in self.sinks:
+                sink.tick(now, record, frames, self.state)
+        self._shown = None
 
     # -- the status panel --------------------------------------------------------------------
     def panel(self, now: float, overruns: int) -> dict[str, Any]:

@@ -311,3 +311,18 @@ def test_a_signal_mid_run_leaves_a_complete_recording_of_every_tick(
               for k, n in summary.statistics.channel_message_counts.items()}
     assert counts["/marknav/tree"] == counts["/tf"] == report["ticks"]
     assert (tmp_path / "metadata.yaml").is_file()
+
+
+@pytest.mark.parametrize(("module", "argv", "extra"), [
+    ("mcap_ros2", ["--record"], "marknav[record]"),
+    ("foxglove", ["--foxglove"], "marknav[foxglove]"),
+])
+def test_without_the_extra_the_option_exits_2_naming_it(
+        module: str, argv: list[str], extra: str, tmp_path: Path,
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    from marknav.cli.main import main
+
+    monkeypatch.setitem(sys.modules, module, None)  # import -> ImportError
+    assert main(["run", str(SLALOM), "--report", str(tmp_path / "r.json"), *argv]) == 2
+    err = capsys.readouterr().err
+    assert f"pip install '{extra}'" in err and argv[0] in err and "Traceback" not in err
