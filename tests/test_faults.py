@@ -1090,7 +1090,7 @@ def test_serve_robot_hears_a_real_client_among_200_junk_clients(tmp_path: Path) 
     assert "Traceback" not in err
 
 
-# --- the signal sweep: SIGINT/SIGTERM at random moments of a whole `run` ---
+# --- the signal sweep: every ending signal at random moments of a whole `run` ---
 
 SWEEP_MOMENTS = int(os.environ.get("MARKNAV_SWEEP_MOMENTS", "14"))
 
@@ -1188,7 +1188,9 @@ def test_signal_sweep_over_the_whole_life_of_a_run(tmp_path: Path) -> None:
     while len(parts) < SWEEP_MOMENTS:
         parts.append(rng.choice(parts))
     moments = [(anchor, rng.uniform(lo, hi)) for anchor, lo, hi in parts[:SWEEP_MOMENTS]]
-    sigs = [signal.SIGINT if k % 2 else signal.SIGTERM for k in range(len(moments))]
+    from marknav.core.signals import ENDING_SIGNALS  # every ending signal, in turn
+
+    sigs = [ENDING_SIGNALS[k % len(ENDING_SIGNALS)] for k in range(len(moments))]
     with ThreadPoolExecutor(2) as pool:
         results = list(pool.map(lambda k: _sweep_run(tmp_path, k + 1, *moments[k], sigs[k]),
                                 range(len(moments))))

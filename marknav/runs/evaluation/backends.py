@@ -10,13 +10,16 @@ backend changes the wall time and nothing else.
 Local pool (``--jobs J``), the lifetime rules of issue 15 item 9:
 
 - workers are ``spawn``-ed (they share nothing with the parent: py_trees' blackboard is
-  process-global); each ignores SIGINT, runs its job in a helper thread (so no run installs
+  process-global); each ignores SIGINT and the other signals of
+  :data:`~marknav.core.signals.ENDING_SIGNALS` (a closed terminal sends SIGHUP to the whole
+  process group: the parent decides), runs its job in a helper thread (so no run installs
   signal handlers in the worker) and leaves SIGTERM at its default, so the parent can end it at
   once; a watchdog thread ends a worker whose parent has gone (``os.getppid()`` changed — the
   parent was killed), so no worker outlives its parent by more than :data:`ORPHAN_POLL_S`;
-- in the parent, SIGINT and SIGTERM raise :class:`EvaluationInterrupted` while the pool runs;
-  the parent then ignores further SIGINT/SIGTERM, terminates its workers, shuts the pool down
-  (which also lets multiprocessing's resource tracker exit) and re-raises — the CLI exits 130.
+- in the parent, every signal of :data:`~marknav.core.signals.ENDING_SIGNALS` raises
+  :class:`EvaluationInterrupted` while the pool runs; the parent then ignores further ones,
+  terminates its workers, shuts the pool down (which also lets multiprocessing's resource
+  tracker exit) and re-raises — the CLI exits 130.
 
 Dask (``--dask tcp://HOST:PORT``, ``pip install 'marknav[cluster]'``): the jobs are submitted to
 the scheduler as tasks; the workers must be able to import marknav and read the mission file at
@@ -47,6 +50,7 @@ from typing import Any
 
 from marknav.core.cvthreads import one_opencv_thread
 from marknav.core.errors import InputError
+from marknav.core.signals import ENDING_SIGNALS
 
 __all__ = ["ORPHAN_POLL_S", "EvaluationInterrupted", "Job", "one_opencv_thread", "run_jobs"]
 
@@ -77,7 +81,8 @@ Task = Callable[..., Any]
 
 
 class EvaluationInterrupted(KeyboardInterrupt):
-    """SIGINT or SIGTERM arrived while the evaluation's runs were executing."""
+    """A signal of :data:`~marknav.core.signals.ENDING_SIGNALS` arrived while the evaluation's
+    runs were executing."""
 
 
 def _run(task: Task, job: Job, max_time_s: float | None) -> Any:
@@ -89,8 +94,7 @@ def _run(task: Task, job: Job, max_time_s: float | None) -> Any:
 
 
 @contextmanager
-def _signals_handled(handler: Any, signals: tuple[signal.Signals, ...] = (signal.SIGINT,
-                                                                          signal.SIGTERM)
+def _signals_handled(handler: Any, signals: tuple[signal.Signals, ...] = ENDING_SIGNALS
                      ) -> Iterator[None]:
     """Route ``signals`` to ``handler`` (a function or ``signal.SIG_IGN``) for a while, then
     restore the previous handlers (main thread only: elsewhere the caller's thread handles
@@ -112,11 +116,12 @@ def _raise_interrupted(signum: int, frame: FrameType | None) -> None:
 
 
 def _interruptible() -> AbstractContextManager[None]:
-    """SIGINT and SIGTERM raise :class:`EvaluationInterrupted` (main thread only)."""
+    """Every signal of :data:`ENDING_SIGNALS` raises :class:`EvaluationInterrupted` (main
+    thread only)."""
     return _signals_handled(_raise_interrupted)
 
 
-def _signals_ignored(signals: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
+def _signals_ignored(signals: tuple[signal.Signals, ...] = ENDING_SIGNALS
                      ) -> AbstractContextManager[None]:
     """Ignore ``signals`` for a while, e.g. so that a second Ctrl-C (or SIGTERM) cannot
     interrupt the clean-up (main thread only)."""
@@ -144,8 +149,9 @@ def _watch_parent(parent: int) -> None:
 
 
 def _init_worker(level: int, parent: int) -> None:
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides what a Ctrl-C means
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    for s in ENDING_SIGNALS:  # the parent decides what a Ctrl-C or a closed terminal means
+        signal.signal(s, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # how the parent ends a worker at once
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     threading.Thread(target=_watch_parent, args=(parent,), name="marknav-parent-watch",
                      daemon=True).start()
@@ -193,9 +199,10 @@ def _run_pool(task: Task, jobs: Sequence[Job], max_time_s: float | None, on_resu
         pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
                                    initializer=_init_worker, initargs=(level, os.getpid()))
         try:
-            # The workers start (in submit) with SIGINT ignored, inherited: a Ctrl-C while one
-            # is still importing cannot kill it with a traceback; the parent handles Ctrl-C.
-            with _signals_ignored((signal.SIGINT,)):
+            # The workers start (in submit) with SIGINT, SIGHUP... ignored, inherited: a Ctrl-C
+            # while one is still importing cannot kill it with a traceback; the parent handles
+            # Ctrl-C.
+            with _signals_ignored(tuple(s for s in ENDING_SIGNALS if s != signal.SIGTERM)):
                 pending: set[Future[Any]] = {pool.submit(_pool_task, task, job, max_time_s)
                                              for job in jobs}
             procs = [p for p in multiprocessing.active_children() if p not in before]
