@@ -1,4 +1,4 @@
-"""The signal sweep beyond ``run``: every ending signal (:data:`marknav.core.signals.ENDING_SIGNALS`)
+"""The signal sweep beyond ``run``: every ending signal (``signals.ENDING_SIGNALS``)
 at random moments of ``evaluate --jobs 2`` and of ``calibrate-odometry`` on a pseudo-terminal
 robot. Each ends with 130 (or, if it had already ended, its own result), no traceback, no
 process of its group left behind and — for the robot — the wheels at 0.

@@ -108,6 +108,30 @@ class EvaluationStopped(KeyboardInterrupt):
         self.evaluation = evaluation
 
 
+def _check_numbers(runs: int, jobs: int, seed: int, max_time_s: float | None,
+                   min_success: float) -> None:
+    """:class:`InputError` naming the option of the first number out of its range."""
+    if runs < 1:
+        raise InputError(f"must be at least 1, got {runs}", field="--runs")
+    if runs > MAX_RUNS:
+        raise InputError(f"must be at most {MAX_RUNS:,} (each run keeps its result for the "
+                         f"summary), got {runs:,}", field="--runs")
+    if jobs < 1:
+        raise InputError(f"must be at least 1, got {jobs}", field="--jobs")
+    if jobs > MAX_JOBS:
+        raise InputError(f"must be at most {MAX_JOBS} worker processes, got {jobs:,}",
+                         field="--jobs")
+    if seed < 0:
+        raise InputError(f"must be ≥ 0, got {seed}", field="--seed")
+    if seed > MAX_SEED - runs:
+        raise InputError(f"must be at most {MAX_SEED - runs:,} (seeds are 64-bit), got "
+                         f"{seed:,}", field="--seed")
+    if max_time_s is not None and not max_time_s > 0:
+        raise InputError(f"must be positive, got {max_time_s}", field="--max-time")
+    if not 0.0 <= min_success <= 1.0:
+        raise InputError(f"must be between 0 and 1, got {min_success}", field="--min-success")
+
+
 def evaluate(
     mission_path: str | Path,
     *,
@@ -132,25 +156,7 @@ def evaluate(
     """
     from marknav.missions.schema import load_mission
 
-    if runs < 1:
-        raise InputError(f"must be at least 1, got {runs}", field="--runs")
-    if runs > MAX_RUNS:
-        raise InputError(f"must be at most {MAX_RUNS:,} (each run keeps its result for the "
-                         f"summary), got {runs:,}", field="--runs")
-    if jobs < 1:
-        raise InputError(f"must be at least 1, got {jobs}", field="--jobs")
-    if jobs > MAX_JOBS:
-        raise InputError(f"must be at most {MAX_JOBS} worker processes, got {jobs:,}",
-                         field="--jobs")
-    if seed < 0:
-        raise InputError(f"must be ≥ 0, got {seed}", field="--seed")
-    if seed > MAX_SEED - runs:
-        raise InputError(f"must be at most {MAX_SEED - runs:,} (seeds are 64-bit), got "
-                         f"{seed:,}", field="--seed")
-    if max_time_s is not None and not max_time_s > 0:
-        raise InputError(f"must be positive, got {max_time_s}", field="--max-time")
-    if not 0.0 <= min_success <= 1.0:
-        raise InputError(f"must be between 0 and 1, got {min_success}", field="--min-success")
+    _check_numbers(runs, jobs, seed, max_time_s, min_success)
     path = str(mission_path)
     from marknav.missions.overrides import parse_overrides
 
