@@ -66,17 +66,31 @@ MAX_INTERVAL_S = 600.0
 
 @dataclass
 class _Frame:
+    """A camera frame (kept: it cannot be taken again) or an image file, decoded each time it
+    is looked at: never every file's pixels at once (16 images whose headers claim 7000×7000
+    were 4.9 GB)."""
+
     name: str
-    image: Image
+    kept: Image | None = None
+
+    @property
+    def image(self) -> Image:
+        if self.kept is not None:
+            return self.kept
+        from marknav.vision.imagefile import read_image
+
+        return read_image(self.name)
 
 
 def _frames(args: argparse.Namespace) -> list[_Frame]:
-    from marknav.vision.imagefile import read_image
+    from marknav.vision.imagefile import check_image_file
 
     if args.camera is None:
         if not args.images:
             raise InputError("give IMAGE files or --camera SRC")
-        return [_Frame(name, read_image(name)) for name in args.images]  # all readable, or 2
+        for name in args.images:  # all readable, or exit 2 before any work
+            check_image_file(name)
+        return [_Frame(name) for name in args.images]
     if args.images:
         raise InputError("give IMAGE files or --camera, not both", field="--camera")
     if not 1 <= args.frames <= MAX_CAMERA_FRAMES:
