@@ -19,6 +19,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
+from typing import overload
 
 from marknav.core.errors import InputError
 from marknav.runs.evaluation.accuracy import (
@@ -90,9 +91,17 @@ class _Jobs(Sequence[Job]):
             return (self._spec, seed, self._overrides, self._engine)
         return (self._spec, seed, self._overrides)
 
-    def __getitem__(self, index: int) -> Job:  # type: ignore[override]
-        k = range(self._n)[index]
-        return self._job(k)
+    @overload
+    def __getitem__(self, index: int) -> Job: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> list[Job]: ...
+
+    def __getitem__(self, index: int | slice) -> Job | list[Job]:
+        picked = range(self._n)[index]
+        if isinstance(picked, range):
+            return [self._job(k) for k in picked]
+        return self._job(picked)
 
     def __iter__(self) -> Iterator[Job]:
         return (self._job(k) for k in range(self._n))

@@ -39,6 +39,7 @@ def test_the_jobs_are_made_as_they_are_asked_for() -> None:
     jobs = _Jobs("m.yaml", 5, 10**7, ("a=1",), None)
     assert len(jobs) == 10**7
     assert jobs[0] == ("m.yaml", 5, ("a=1",)) and jobs[-1] == ("m.yaml", 5 + 10**7 - 1, ("a=1",))
+    assert jobs[1:3] == [("m.yaml", 6, ("a=1",)), ("m.yaml", 7, ("a=1",))]
     assert list(_Jobs("m.yaml", 0, 2, (), "mujoco")) == [("m.yaml", 0, (), "mujoco"),
                                                         ("m.yaml", 1, (), "mujoco")]
 
