@@ -99,9 +99,10 @@ for seed in range(int(sys.argv[2])):
         print(int(fh.read().split()[1]) * page, flush=True)
 """
 RUNS_IN_ONE_WORKER = 20
-#: Growth allowed from the 5th run to the 20th (bytes): the allocator keeps arenas it grew
-#: (≈ 10 MB seen); without a full collection after each run it was ≈ 12 MB a run (> 150 MB).
-GROWTH_ALLOWED_B = 48 * 2**20
+#: Growth allowed over the 5th run's memory in any later one of the 20 (bytes): ≈ 10 MB seen;
+#: with no collection after each run it was ≈ 75 MB, with the collection but the freed heap
+#: kept by the C library ≈ 50 MB, and both kept growing over more runs.
+GROWTH_ALLOWED_B = 24 * 2**20
 #: Runs before the worker's memory is measured from (imports, first-use caches, numba).
 WARM_UP_RUNS = 4
 
@@ -115,5 +116,5 @@ def test_a_workers_memory_stays_flat_over_twenty_runs(tmp_path: Path) -> None:
     assert out.returncode == 0, out.stderr
     rss = [int(line) for line in out.stdout.split()]
     assert len(rss) == RUNS_IN_ONE_WORKER
-    growth = rss[-1] - rss[WARM_UP_RUNS]
+    growth = max(rss[WARM_UP_RUNS:]) - rss[WARM_UP_RUNS]
     assert growth < GROWTH_ALLOWED_B, [r // 2**20 for r in rss]
