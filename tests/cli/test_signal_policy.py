@@ -98,6 +98,7 @@ def test_a_signal_stops_the_driving_robot_and_names_itself_in_the_report(
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+    print(f"{sig.name}: wheels at 0 {1000 * stopped_after:.0f} ms after the signal")
     assert stopped_after <= STOP_WITHIN_S, f"wheels at 0 only {stopped_after:.3f} s after {sig!r}"
     assert proc.returncode == 130, err
     assert "Traceback" not in err
