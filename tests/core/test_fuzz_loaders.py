@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import json
 import math
 import os
 import re
@@ -76,10 +77,30 @@ trees = st.recursive(scalars, lambda inner: st.one_of(
     max_leaves=30)
 
 
+#: Scalars PyYAML's constructors cannot build: explicit tags on any text, dates and times out of
+#: range, integers past Python's 4,300-digit limit.
+_TAGS = ["!!int", "!!float", "!!bool", "!!timestamp", "!!null", "!!binary", "!!str", ""]
+bad_scalars = st.one_of(
+    st.tuples(st.sampled_from(_TAGS), st.text(max_size=12), st.booleans()).map(
+        lambda t: f"{t[0]} {json.dumps(t[1]) if t[2] else t[1]}"),
+    st.tuples(st.integers(0, 9999), st.integers(0, 99), st.integers(0, 99),
+              st.sampled_from(["", " 25:00:00", "T23:59:60", " 12:61:00.5+25:00"])).map(
+        lambda t: f"{t[0]:04d}-{t[1]:02d}-{t[2]:02d}{t[3]}"),
+    st.integers(4000, 6000).map(lambda n: "9" * n),
+)
+
+
 @st.composite
 def yaml_texts(draw: st.DrawFn, base: str) -> str:
-    """A real file with lines replaced, text spliced in, deep nesting or alias chains."""
-    kind = draw(st.sampled_from(["splice", "structure", "deep", "aliases", "noise"]))
+    """A real file with lines replaced, text spliced in, deep nesting, alias chains, or a value
+    PyYAML cannot construct."""
+    kind = draw(st.sampled_from(["splice", "structure", "deep", "aliases", "noise", "scalar"]))
+    if kind == "scalar":
+        lines = base.splitlines()
+        keyed = [i for i, ln in enumerate(lines) if re.match(r"^\s*[a-z_]+: \S", ln)]
+        i = draw(st.sampled_from(keyed))
+        lines[i] = lines[i].split(":", 1)[0] + ": " + draw(bad_scalars)
+        return "\n".join(lines)
     if kind == "structure":
         return yaml.safe_dump(draw(trees), allow_unicode=True)
     if kind == "deep":

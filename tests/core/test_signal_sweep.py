@@ -1,4 +1,4 @@
-"""The signal sweep (issue 31): SIGINT/SIGTERM at random moments of a whole ``marknav run``,
+"""The signal sweep (issue 31): every ending signal at random moments of a whole ``marknav run``,
 from marknav's first line to the process's exit: exit 130 without a traceback, the report and
 the log whole once the mission was read, the wheels left at 0.
 """
@@ -118,7 +118,9 @@ def test_signal_sweep_over_the_whole_life_of_a_run(tmp_path: Path) -> None:
     while len(parts) < SWEEP_MOMENTS:
         parts.append(rng.choice(parts))
     moments = [(anchor, rng.uniform(lo, hi)) for anchor, lo, hi in parts[:SWEEP_MOMENTS]]
-    sigs = [signal.SIGINT if k % 2 else signal.SIGTERM for k in range(len(moments))]
+    from marknav.core.signals import ENDING_SIGNALS  # every ending signal, in turn
+
+    sigs = [ENDING_SIGNALS[k % len(ENDING_SIGNALS)] for k in range(len(moments))]
     with ThreadPoolExecutor(2) as pool:
         results = list(pool.map(lambda k: _sweep_run(tmp_path, k + 1, *moments[k], sigs[k]),
                                 range(len(moments))))

@@ -27,6 +27,7 @@ Records (``t``: seconds since the run started, never decreasing; ``kind`` names 
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import logging
@@ -124,6 +125,7 @@ class Recorder:
         self._last_frame: dict[int, int] = {}
         self._frame_times: deque[float] = deque(maxlen=40)
         self._last_saved: float | None = None
+        self._frames_lost = False  # a frame could not be written: no more are tried
         self._started = False
         self.logging = events.path is not None or bool(self.sinks)
         #: What :meth:`show` draws and sends: the last tick's panel, record and frames.
@@ -330,20 +332,30 @@ class Recorder:
         return out
 
     def _save_image(self, now: float, record: dict[str, Any], image: Any) -> None:
-        if self.frames_hz is None or self.events.path is None:
+        if self.frames_hz is None or self.events.path is None or self._frames_lost:
             return
         if self._last_saved is not None and now - self._last_saved < 1.0 / self.frames_hz - 1e-9:
             return
         import cv2
 
         folder = self.events.path.parent / (self.events.path.name.split(".")[0] + ".frames")
-        folder.mkdir(parents=True, exist_ok=True)
         name = f"{record['index']:06d}.jpg"
         ok, data = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 85])
-        if ok:
+        if not ok:
+            return
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
             (folder / name).write_bytes(data.tobytes())
-            record["image"] = f"{folder.name}/{name}"
-            self._last_saved = now
+        except OSError as exc:  # a full disk, a quota, a removed folder: the run goes on
+            with contextlib.suppress(OSError):  # half a file is no frame
+                (folder / name).unlink(missing_ok=True)
+            # Said once; the frames are a by-product of the run: losing them must not end it.
+            log.warning("cannot save camera frames in %s (%s): no more frames are saved; the "
+                        "run goes on", folder, exc.strerror or exc)
+            self._frames_lost = True
+            return
+        record["image"] = f"{folder.name}/{name}"
+        self._last_saved = now
 
 
 # -- reading a log back ----------------------------------------------------------------------

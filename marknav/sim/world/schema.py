@@ -27,6 +27,7 @@ from marknav.core.yamlio import Position, load_yaml_file, parse_model
 from marknav.planning.kinematics import Pose, wrap_angle
 from marknav.sim.lens import Lens
 from marknav.sim.mujoco.scene import MujocoScene
+from marknav.sim.overlap import first_overlap
 
 __all__ = [
     "CAST_GAINS_BGR",
@@ -341,16 +342,15 @@ class World(_Strict):
     @field_validator("marks")
     @classmethod
     def _marks_apart(cls, marks: tuple[MarkSpec, ...]) -> tuple[MarkSpec, ...]:
-        for j, b in enumerate(marks):
-            for i in range(j):
-                a = marks[i]
-                gap = math.dist(a.xy, b.xy)
-                if gap < a.radius() + b.radius():
-                    raise ValueError(
-                        f"marks[{j}] ({b.colour} at {b.x_mm:g}, {b.y_mm:g}) overlaps marks[{i}] "
-                        f"({a.colour} at {a.x_mm:g}, {a.y_mm:g}): centres {gap:.0f} mm apart, "
-                        f"radii {a.radius():g} + {b.radius():g} mm"
-                    )
+        pair = first_overlap([m.xy for m in marks], [m.radius() for m in marks])
+        if pair is not None:
+            (j, i), gap = pair, math.dist(marks[pair[0]].xy, marks[pair[1]].xy)
+            a, b = marks[i], marks[j]
+            raise ValueError(
+                f"marks[{j}] ({b.colour} at {b.x_mm:g}, {b.y_mm:g}) overlaps marks[{i}] "
+                f"({a.colour} at {a.x_mm:g}, {a.y_mm:g}): centres {gap:.0f} mm apart, "
+                f"radii {a.radius():g} + {b.radius():g} mm"
+            )
         return marks
 
     @model_validator(mode="after")
