@@ -1,0 +1,86 @@
+"""Stage 1, photometry: the frame as if exposed for its marks and lit by white light.
+
+**Design.** Hue and saturation are ratios of the channels, so a frame's brightness leaves them
+alone — until the marks are so dark that 8-bit steps and sensor noise decide them, and until
+the value floors that keep out shadows cut the marks too. A camera's auto-exposure meters the
+whole frame, so a dim room or a frame with a lamp in it leaves the marks a few tens of grey
+levels. The stage therefore applies a software gain that brings the frame's ``percentile``-th
+brightest value (max of B, G, R) to ``target_value`` (never below 1×, never above
+``max_gain``): after it, every value floor is relative to the frame's exposure. The light's
+colour is taken out by grey world on the channels' medians (robust to a mark or a board
+filling a tenth of the frame), each channel's correction bounded by ``max_cast``: a tinted
+lamp's greys come back grey (their saturation, which the floors read, falls back), while a
+room whose walls are really coloured is corrected only so far. Both corrections are one
+per-channel table (``Scene.lut``) applied to the half-size search image here and to the
+full-resolution windows the marks are measured in (:mod:`.shape`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import cv2
+import numpy as np
+
+from marknav.vision.detect.scene import SEARCH_SCALE, Mat, Scene
+
+__all__ = ["PhotometryConfig", "correction_table", "photometry"]
+
+#: Rows and columns of the search image sampled for the frame's statistics (every n-th):
+#: percentiles and medians of 1/16 of the pixels differ from the whole frame's by under a grey
+#: level on the project's frames, at 1/16 of the cost.
+_SAMPLE_STEP = 4
+
+
+@dataclass(frozen=True)
+class PhotometryConfig:
+    """Exposure and light-colour correction (see the module docstring)."""
+
+    #: Grey level (0..255) the frame's bright end is brought to: 200 leaves headroom for
+    #: highlights while a white sheet or a lamp-lit wall reads as white.
+    target_value: float = 200.0
+    #: Percentile (%) of the brightest channel that is the frame's bright end: 99 ignores a
+    #: lamp or a specular highlight covering under 1 % of the frame.
+    percentile: float = 99.0
+    #: Largest software gain (×): 8× is three stops, what a dim room under-exposes a camera
+    #: metering a window or lamp by; more amplifies noise into colour.
+    max_gain: float = 8.0
+    #: Largest per-channel light-colour correction (×, and 1/× down): a lamp from 2700 K to
+    #: 6500 K moves the blue-to-red ratio by about 1.6× each way from daylight. 1: none.
+    max_cast: float = 1.6
+
+
+def _percentile(channel: Mat, percent: float) -> float:
+    """The ``percent``-th percentile of an 8-bit channel, from its histogram."""
+    hist = cv2.calcHist([channel], [0], None, [256], [0, 256]).ravel()
+    total = float(hist.sum())
+    if total <= 0:
+        return 0.0
+    return float(np.searchsorted(np.cumsum(hist), percent / 100.0 * total))
+
+
+def correction_table(small: Mat, config: PhotometryConfig) -> Mat:
+    """The per-channel 256×1×3 table of the exposure gain and light-colour correction for a
+    search image ``small`` (BGR)."""
+    sample = np.ascontiguousarray(small[::_SAMPLE_STEP, ::_SAMPLE_STEP])
+    channels = cv2.split(sample)
+    medians = np.array([_percentile(c, 50.0) for c in channels]) + 1.0
+    cast = np.clip(float(medians.mean()) / medians, 1.0 / config.max_cast, config.max_cast)
+    balanced = [cv2.convertScaleAbs(c, alpha=float(k)) for c, k in zip(channels, cast, strict=True)]
+    brightest = cv2.max(cv2.max(balanced[0], balanced[1]), balanced[2])
+    bright = _percentile(brightest, config.percentile)
+    gain = float(np.clip(config.target_value / max(bright, 1.0), 1.0, config.max_gain))
+    levels = np.arange(256, dtype=np.float32)[:, None] * (gain * cast)[None, :]
+    table: Mat = np.clip(levels + 0.5, 0, 255).astype(np.uint8).reshape(256, 1, 3)
+    return table
+
+
+def photometry(scene: Scene, config: PhotometryConfig) -> Scene:
+    """The scene with its search image, correction table and the search image's HSV."""
+    h, w = scene.image.shape[:2]
+    small = cv2.resize(scene.image, (max(1, w // SEARCH_SCALE), max(1, h // SEARCH_SCALE)),
+                       interpolation=cv2.INTER_AREA)
+    lut = correction_table(small, config)
+    corrected = cv2.LUT(small, lut)
+    return replace(scene, lut=lut, small=corrected,
+                   hsv=cv2.cvtColor(corrected, cv2.COLOR_BGR2HSV))

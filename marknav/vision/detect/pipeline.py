@@ -1,0 +1,99 @@
+"""The detector as a pipeline of pure stages over one frozen value, :class:`Scene`.
+
+Each stage is a function ``Scene -> Scene`` with its own small frozen config; nothing is kept on
+an object between frames. In order:
+
+1. :mod:`.photometry` — the frame at half size, its exposure and light colour taken out;
+2. :mod:`.classify` — one mask per palette colour (hue range, exposure-relative floors);
+3. :mod:`.segment` — the masks opened and cut along the frame's own edges into blobs;
+4. :mod:`.shape` — each blob measured as an ellipse at full resolution, kept if it is one;
+5. :mod:`.suppress` — one mark per object, the horizon band, largest (nearest) first.
+
+:class:`Detector` holds only the palette and the configs (both frozen) and runs the stages;
+:func:`run_stages` runs any prefix of them, which is how the tests and the docs' pictures see
+each stage's output.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from marknav.vision.detect.classify import ClassifyConfig, classify
+from marknav.vision.detect.model import Mark
+from marknav.vision.detect.photometry import PhotometryConfig, photometry
+from marknav.vision.detect.scene import Blob, Scene
+from marknav.vision.detect.segment import SegmentConfig, segment
+from marknav.vision.detect.shape import ShapeConfig, measure, screen
+from marknav.vision.detect.suppression import SuppressConfig, suppress
+from marknav.vision.palette import DEFAULT_PALETTE, Palette
+
+__all__ = ["STAGES", "Blob", "Detector", "DetectorConfig", "Scene", "detect_marks",
+           "run_stages"]
+
+U8Array = npt.NDArray[np.uint8]
+
+
+@dataclass(frozen=True)
+class DetectorConfig:
+    """Every stage's config (see each for its fields, their units and their reasons)."""
+
+    photometry: PhotometryConfig = field(default_factory=PhotometryConfig)
+    classify: ClassifyConfig = field(default_factory=ClassifyConfig)
+    segment: SegmentConfig = field(default_factory=SegmentConfig)
+    shape: ShapeConfig = field(default_factory=ShapeConfig)
+    suppress: SuppressConfig = field(default_factory=SuppressConfig)
+
+    def with_(self, **changes: dict[str, Any]) -> DetectorConfig:
+        """This config with some stages' fields changed: ``with_(shape={"min_fill": 0.7})``."""
+        return replace(self, **{k: replace(getattr(self, k), **v) for k, v in changes.items()})
+
+
+Stage = Callable[[Scene, DetectorConfig], Scene]
+
+#: The stages in order, by name.
+STAGES: tuple[tuple[str, Stage], ...] = (
+    ("photometry", lambda s, c: photometry(s, c.photometry)),
+    ("classify", lambda s, c: classify(s, c.classify)),
+    ("segment", lambda s, c: segment(s, c.segment, lambda b: screen(b, c.shape) is not None)),
+    ("shape", lambda s, c: measure(s, c.shape)),
+    ("suppress", lambda s, c: suppress(s, c.suppress)),
+)
+
+
+def run_stages(image: U8Array, palette: Palette, config: DetectorConfig,
+               until: str | None = None) -> Scene:
+    """The scene after every stage up to ``until`` (inclusive; ``None``: all of them)."""
+    scene = Scene(image=image, palette=tuple(palette))
+    for name, stage in STAGES:
+        scene = stage(scene, config)
+        if name == until:
+            break
+    return scene
+
+
+class Detector:
+    """The marks of ``palette`` in BGR frames: :meth:`detect` runs every stage."""
+
+    def __init__(self, palette: Palette = DEFAULT_PALETTE,
+                 config: DetectorConfig | None = None) -> None:
+        self.palette: Palette = tuple(palette)
+        self.config = config or DetectorConfig()
+
+    def detect(self, image: U8Array) -> list[Mark]:
+        """The marks in one BGR frame, largest (nearest) first."""
+        return list(run_stages(image, self.palette, self.config).marks)
+
+
+def detect_marks(image: U8Array, palette: Palette = DEFAULT_PALETTE) -> list[Mark]:
+    """The marks in one BGR frame with the default config."""
+    return Detector(palette).detect(image)
+
+
+def blobs_of(scene: Scene) -> Sequence[Blob]:
+    """The scene's blobs (after :mod:`.segment`)."""
+    return scene.blobs

@@ -1,0 +1,53 @@
+"""The value that flows from stage to stage (:class:`Scene`) and the blobs it carries."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from marknav.vision.detect.model import Mark
+from marknav.vision.palette import ColourRange
+
+__all__ = ["SEARCH_SCALE", "Blob", "Mat", "Scene", "U8Array"]
+
+U8Array = npt.NDArray[np.uint8]
+#: What OpenCV returns (images, masks, contours): its stubs type the element loosely.
+Mat = npt.NDArray[Any]
+
+#: The search image is the frame at 1/SEARCH_SCALE of its size (area-averaged): a mark of the
+#: smallest radius worth steering by (5 px) is still 2.5 px there, and the search costs a
+#: quarter; marks are measured at full resolution (:mod:`.shape`).
+SEARCH_SCALE = 2
+
+
+@dataclass(frozen=True, eq=False)
+class Blob:
+    """One connected piece of a colour's mask, in search-image pixels."""
+
+    colour: int
+    contour: Mat
+    area: float
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """One frame as far as the stages have taken it. Stages fill fields; none changes one.
+
+    ``image``: the BGR frame; ``lut``: the per-channel table (256×1×3) that takes out its
+    exposure and the light's colour (:mod:`.photometry`); ``small``: the search image through
+    it; ``hsv``: its HSV; ``masks``: one per palette colour (:mod:`.classify`); ``edges``: the
+    search image's edges; ``blobs`` (:mod:`.segment`); ``marks`` (:mod:`.shape`, then
+    :mod:`.suppression`)."""
+
+    image: U8Array
+    palette: tuple[ColourRange, ...]
+    lut: Mat | None = None
+    small: Mat | None = None
+    hsv: Mat | None = None
+    masks: tuple[Mat, ...] = ()
+    edges: Mat | None = None
+    blobs: tuple[Blob, ...] = ()
+    marks: tuple[Mark, ...] = ()

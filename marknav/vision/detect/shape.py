@@ -1,0 +1,192 @@
+"""Stage 4, shape: each blob measured as an ellipse, kept if it is a painted disc.
+
+**Screen** (search image, per blob): the ellipse ``fitEllipse`` gives the contour must be
+filled by the blob (area / πab ≥ ``min_fill``: a disc fills its ellipse, a triangle, a bar's
+end or a pair of touching things do not), its outline must follow the ellipse
+(``max_outline_share``) and it must be no flatter than ``min_axis_ratio`` (a disc seen θ off
+its face has axis ratio cos θ).
+
+**Measure** (full resolution, a window around the blob): the window through the same
+correction table; a blurred rim mixes the paint's colour P (median inside the blob) and its
+surroundings' B (median of the window outside it) linearly, so each pixel's coverage α is its
+colour's projection on P − B, from 0 at B to 1 at P, kept to the blob grown by a few pixels.
+α's image moments give area, centre and axes (a filled
+ellipse of semi-axes a, b has second moments a²/4, b²/4), so the radius is not biased by blur
+or by where a contour runs through the rim's pixels: the range (∝ 1/h) depends on it.
+
+**Vetoes** (those that pay on the tuning half): a mark whose chroma (colour less its grey)
+differs from its surroundings' by less than ``min_contrast`` (out-of-focus clutter of a
+palette hue is round but faint), or whose inside is textured beyond ``max_texture`` (paint is
+flat; foliage, fabric and skin are not).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import cv2
+import numpy as np
+
+from marknav.vision.detect.model import Mark
+from marknav.vision.detect.scene import SEARCH_SCALE, Blob, Mat, Scene
+
+__all__ = ["ShapeConfig", "coverage_ellipse", "measure", "screen"]
+
+#: ``circle`` when minor/major is at least this (a disc turned under 25° reads as round).
+CIRCLE_RATIO = 0.9
+#: Full-resolution px the measuring domain reaches beyond the blob (a blurred rim's width at
+#: the project's cameras: blur σ up to 1.2 px, ±2σ) and where the ring behind it ends.
+_DOMAIN_PX = 3
+_RING_PX = 8
+#: Pixels (full resolution) of a rim at least this far inside the domain count as the mark's.
+_CORE_PX = 2
+_DOMAIN_KERNEL = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * _DOMAIN_PX + 1,) * 2)
+_CORE_KERNEL = np.ones((2 * _CORE_PX + 1,) * 2, np.uint8)
+#: Half a search pixel (px): how far an outline through pixel centres lies from the true one.
+_QUANTUM_PX = 0.5
+#: The fewest pixels the mark's and the ring's chroma are taken from.
+_MIN_PIXELS = 4
+
+
+@dataclass(frozen=True)
+class ShapeConfig:
+    """What is a painted disc (see the module docstring)."""
+
+    #: The smallest semi-major axis (px, full resolution) a mark is measured at: 5 px is the
+    #: robot's smallest useful mark (its range is 10-16 % off below it);
+    #: :meth:`~marknav.vision.detect.pipeline.DetectorConfig.for_camera` sets it from the
+    #: course's farthest mark.
+    min_radius_px: float = 5.0
+    #: Share of its fitted ellipse a blob must fill: a disc quantised to the search image's
+    #: pixels fills 0.93-1.0 of it; a bar's rounded end, a triangle or two touching things
+    #: under 0.9.
+    min_fill: float = 0.9
+    #: Smallest minor/major ratio: courses turn their marks up to 60° and the robot sees them
+    #: from up to about 12° beside the course, so views reach 72°: cos 72° ≈ 0.3.
+    min_axis_ratio: float = 0.3
+    #: Largest mean distance of the blob's outline from its ellipse, as a share of the radius
+    #: (plus half a search pixel for the outline's quantisation): a disc's outline follows
+    #: its ellipse to 1-2 %, one with a fifth of it hidden to about 2 %.
+    max_outline_share: float = 0.02
+    #: Smallest chroma step (colour less its grey; BGR levels after photometry) from the
+    #: mark's paint to its surroundings: paint against a grey or other-coloured surface steps
+    #: by 90+, out-of-focus clutter and a patch of a coloured surface by under 40.
+    min_contrast: float = 50.0
+    #: Largest texture inside the mark (median absolute deviation from its median colour,
+    #: summed over B, G, R; levels): paint is flat (under 20 with sensor noise and shading),
+    #: foliage, fabric and skin are not.
+    max_texture: float = 30.0
+
+
+def screen(blob: Blob, config: ShapeConfig,
+           ) -> tuple[tuple[float, float], tuple[float, float], float] | None:
+    """The blob's fitted ellipse ``((x, y), (a, b), angle_deg)`` (search image, semi-axes) if
+    it passes the screen (size, axis ratio, fill, outline), else ``None``."""
+    (x, y), (w, h), angle = cv2.fitEllipse(blob.contour)
+    a, b = 0.5 * max(w, h), 0.5 * min(w, h)
+    if b <= 0 or b < config.min_axis_ratio * a or SEARCH_SCALE * a < config.min_radius_px:
+        return None
+    if blob.area < config.min_fill * math.pi * a * b:
+        return None
+    t = math.radians(angle)
+    d = blob.contour.reshape(-1, 2) - (x, y)
+    u = (d[:, 0] * math.cos(t) + d[:, 1] * math.sin(t)) / (0.5 * w)
+    v = (d[:, 1] * math.cos(t) - d[:, 0] * math.sin(t)) / (0.5 * h)
+    off = float(np.mean(np.abs(np.sqrt(u * u + v * v) - 1.0))) * math.sqrt(a * b)
+    if off > _QUANTUM_PX + config.max_outline_share * a:
+        return None
+    return (x, y), (a, b), angle
+
+
+def coverage_ellipse(alpha: Mat) -> tuple[float, float, float, float, float] | None:
+    """``(x, y, a, b, angle_deg)`` of the filled ellipse with ``alpha``'s moments (window px,
+    pixel centres at integers; ``angle_deg`` the major axis's, from +x towards +y)."""
+    m = cv2.moments(alpha.astype(np.float32))
+    if m["m00"] <= 0:
+        return None
+    x, y = m["m10"] / m["m00"], m["m01"] / m["m00"]
+    mu20, mu02, mu11 = m["mu20"] / m["m00"], m["mu02"] / m["m00"], m["mu11"] / m["m00"]
+    spread = math.hypot(mu20 - mu02, 2.0 * mu11)
+    l1, l2 = 0.5 * (mu20 + mu02 + spread), 0.5 * (mu20 + mu02 - spread)
+    if l2 <= 0:
+        return None
+    angle = math.degrees(0.5 * math.atan2(2.0 * mu11, mu20 - mu02)) % 180.0
+    return x, y, 2.0 * math.sqrt(l1), 2.0 * math.sqrt(l2), angle
+
+
+def _window(scene: Scene, blob: Blob) -> tuple[int, int, Mat, Mat] | None:
+    """The blob's full-resolution window: origin, corrected BGR, and the blob's mask in it."""
+    h, w = scene.image.shape[:2]
+    bx, by, bw, bh = cv2.boundingRect(blob.contour)
+    pad = _RING_PX + SEARCH_SCALE
+    x0, y0 = max(0, bx * SEARCH_SCALE - pad), max(0, by * SEARCH_SCALE - pad)
+    x1 = min(w, (bx + bw) * SEARCH_SCALE + pad)
+    y1 = min(h, (by + bh) * SEARCH_SCALE + pad)
+    if x1 - x0 < 3 or y1 - y0 < 3:
+        return None
+    assert scene.lut is not None
+    roi = cv2.LUT(np.ascontiguousarray(scene.image[y0:y1, x0:x1]), scene.lut)
+    inside = np.zeros((y1 - y0, x1 - x0), np.uint8)
+    # The contour's pixel centres, scaled: search pixel i covers full pixels 2i, 2i+1.
+    full = blob.contour.astype(np.float32) * SEARCH_SCALE + (0.5 * (SEARCH_SCALE - 1))
+    cv2.drawContours(inside, [np.round(full - (x0, y0)).astype(np.int32)], -1, 255, -1)
+    return x0, y0, roi, inside
+
+
+def _alpha(roi: Mat, inside: Mat, config: ShapeConfig) -> Mat | None:
+    """The mark's coverage in its window (see the module docstring), or ``None`` when its
+    chroma does not stand out from its ring's by ``min_contrast``."""
+    domain = cv2.dilate(inside, _DOMAIN_KERNEL) > 0
+    ring = ~domain  # the rest of the window: up to _RING_PX beyond the blob's box
+    core = cv2.erode(inside, _CORE_KERNEL) > 0
+    if cv2.countNonZero(core.view(np.uint8)) < _MIN_PIXELS:
+        core = inside > 0
+    pixels = roi.reshape(-1, 3)
+    own = pixels[core.ravel()]
+    paint = np.median(own, axis=0)
+    if float(np.median(np.abs(own - paint).sum(axis=1))) > config.max_texture:
+        return None
+    behind = pixels[ring.ravel()]
+    back = np.median(behind, axis=0) if len(behind) >= _MIN_PIXELS else np.zeros(3)
+    step = paint - back
+    step -= step.mean()  # chroma: the grey (shading) removed
+    if np.linalg.norm(step) < max(config.min_contrast, 1.0):
+        return None
+    along = (step / float(step @ step)).reshape(1, 3)  # sums to 0: blind to grey
+    along = along.astype(np.float32)
+    projected = cv2.transform(roi.astype(np.float32), along).reshape(roi.shape[:2])
+    out: Mat = np.clip(projected - float(back @ along.ravel()), 0.0, 1.0)
+    out[~domain] = 0.0
+    return out
+
+
+def _measure_blob(scene: Scene, blob: Blob, config: ShapeConfig) -> Mark | None:
+    fit = screen(blob, config)
+    if fit is None:
+        return None
+    window = _window(scene, blob)
+    if window is None:
+        return None
+    x0, y0, roi, inside = window
+    alpha = _alpha(roi, inside, config)
+    if alpha is None:
+        return None
+    ellipse = coverage_ellipse(alpha)
+    if ellipse is None:
+        return None
+    x, y, a, b, angle = ellipse
+    (_, _), (sa, sb), _ = fit
+    if b < config.min_axis_ratio * a:
+        return None
+    fill = min(1.0, blob.area / (math.pi * sa * sb))
+    return Mark(colour=scene.palette[blob.colour].name, x=x + x0, y=y + y0, radius=a,
+                axes=(a, b), angle_deg=angle,
+                shape="circle" if b >= CIRCLE_RATIO * a else "ellipse",
+                score=round(fill * min(1.0, b / a + 0.5), 4))
+
+
+def measure(scene: Scene, config: ShapeConfig) -> Scene:
+    """The scene with the marks its blobs measure as (needs :mod:`.segment`)."""
+    marks = [m for m in (_measure_blob(scene, b, config) for b in scene.blobs) if m is not None]
+    return replace(scene, marks=tuple(marks))
