@@ -59,7 +59,7 @@ Stage = Callable[[Scene, DetectorConfig], Scene]
 STAGES: tuple[tuple[str, Stage], ...] = (
     ("photometry", lambda s, c: photometry(s, c.photometry)),
     ("classify", lambda s, c: classify(s, c.classify)),
-    ("segment", lambda s, c: segment(s, c.segment, lambda b: screen(b, c.shape) is not None)),
+    ("segment", lambda s, c: segment(s, c.segment, lambda b: screen(b, c.shape))),
     ("shape", lambda s, c: measure(s, c.shape)),
     ("suppress", lambda s, c: suppress(s, c.suppress)),
 )

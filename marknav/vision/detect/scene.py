@@ -11,11 +11,13 @@ import numpy.typing as npt
 from marknav.vision.detect.model import Mark
 from marknav.vision.palette import ColourRange
 
-__all__ = ["SEARCH_SCALE", "Blob", "Mat", "Scene", "U8Array"]
+__all__ = ["SEARCH_SCALE", "Blob", "Ellipse", "Mat", "Scene", "U8Array"]
 
 U8Array = npt.NDArray[np.uint8]
 #: What OpenCV returns (images, masks, contours): its stubs type the element loosely.
 Mat = npt.NDArray[Any]
+#: An ellipse as ``((x, y), (semi-major, semi-minor), angle_deg)``.
+Ellipse = tuple[tuple[float, float], tuple[float, float], float]
 
 #: The search image is the frame at 1/SEARCH_SCALE of its size (area-averaged): a mark of the
 #: smallest radius worth steering by (5 px) is still 2.5 px there, and the search costs a
@@ -25,11 +27,15 @@ SEARCH_SCALE = 2
 
 @dataclass(frozen=True, eq=False)
 class Blob:
-    """One connected piece of a colour's mask, in search-image pixels."""
+    """One connected piece of a colour's mask, in search-image pixels; ``ellipse`` is its
+    fitted ellipse ``((x, y), (a, b), angle_deg)`` once :mod:`.shape`'s screen passed it."""
 
     colour: int
     contour: Mat
     area: float
+    ellipse: Ellipse | None = None
+    #: Search-image pixels the blob may have lost at its rim to :mod:`.segment`'s cut.
+    cut_px: int = 0
 
 
 @dataclass(frozen=True, eq=False)
@@ -38,8 +44,8 @@ class Scene:
 
     ``image``: the BGR frame; ``lut``: the per-channel table (256×1×3) that takes out its
     exposure and the light's colour (:mod:`.photometry`); ``small``: the search image through
-    it; ``hsv``: its HSV; ``masks``: one per palette colour (:mod:`.classify`); ``edges``: the
-    search image's edges; ``blobs`` (:mod:`.segment`); ``marks`` (:mod:`.shape`, then
+    it; ``hsv``: its HSV; ``masks``: one per palette colour (:mod:`.classify`); ``blobs``
+    (:mod:`.segment`); ``marks`` (:mod:`.shape`, then
     :mod:`.suppression`)."""
 
     image: U8Array
@@ -48,6 +54,5 @@ class Scene:
     small: Mat | None = None
     hsv: Mat | None = None
     masks: tuple[Mat, ...] = ()
-    edges: Mat | None = None
     blobs: tuple[Blob, ...] = ()
     marks: tuple[Mark, ...] = ()

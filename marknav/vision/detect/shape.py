@@ -9,10 +9,11 @@ its face has axis ratio cos θ).
 **Measure** (full resolution, a window around the blob): the window through the same
 correction table; a blurred rim mixes the paint's colour P (median inside the blob) and its
 surroundings' B (median of the window outside it) linearly, so each pixel's coverage α is its
-colour's projection on P − B, from 0 at B to 1 at P, kept to the blob grown by a few pixels.
-α's image moments give area, centre and axes (a filled
-ellipse of semi-axes a, b has second moments a²/4, b²/4), so the radius is not biased by blur
-or by where a contour runs through the rim's pixels: the range (∝ 1/h) depends on it.
+colour's projection on P − B, from 0 at B to 1 at P. The pixels of α ≥ 0.5 within the blob
+grown by a few pixels are the mark: across a symmetric blur the count of pixels past the
+mid-level is an unbiased area, and their image moments give centre and axes (a filled ellipse
+of semi-axes a, b has second moments a²/4, b²/4), so the radius is not biased by blur or by
+where a contour runs through the rim's pixels: the range (∝ 1/h) depends on it.
 
 **Vetoes** (those that pay on the tuning half): a mark whose chroma (colour less its grey)
 differs from its surroundings' by less than ``min_contrast`` (out-of-focus clutter of a
@@ -29,7 +30,7 @@ import cv2
 import numpy as np
 
 from marknav.vision.detect.model import Mark
-from marknav.vision.detect.scene import SEARCH_SCALE, Blob, Mat, Scene
+from marknav.vision.detect.scene import SEARCH_SCALE, Blob, Ellipse, Mat, Scene
 
 __all__ = ["ShapeConfig", "coverage_ellipse", "measure", "screen"]
 
@@ -45,6 +46,10 @@ _DOMAIN_KERNEL = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * _DOMAIN_PX + 
 _CORE_KERNEL = np.ones((2 * _CORE_PX + 1,) * 2, np.uint8)
 #: Half a search pixel (px): how far an outline through pixel centres lies from the true one.
 _QUANTUM_PX = 0.5
+#: A blob's longer side spans at least this share of a smallest mark's diameter (the major
+#: axis of an ellipse turned in the image spans its bounding box's diagonal at most √2 of
+#: the longer side, less a pixel of rounding).
+_MIN_EXTENT = 0.6
 #: The fewest pixels the mark's and the ring's chroma are taken from.
 _MIN_PIXELS = 4
 
@@ -79,10 +84,14 @@ class ShapeConfig:
     max_texture: float = 30.0
 
 
-def screen(blob: Blob, config: ShapeConfig,
-           ) -> tuple[tuple[float, float], tuple[float, float], float] | None:
+def screen(blob: Blob, config: ShapeConfig) -> Ellipse | None:
     """The blob's fitted ellipse ``((x, y), (a, b), angle_deg)`` (search image, semi-axes) if
     it passes the screen (size, axis ratio, fill, outline), else ``None``."""
+    r_min = config.min_radius_px / SEARCH_SCALE
+    if blob.area < config.min_fill * config.min_axis_ratio * math.pi * r_min * r_min:
+        return None
+    if max(cv2.boundingRect(blob.contour)[2:]) < 2.0 * r_min * _MIN_EXTENT:
+        return None
     (x, y), (w, h), angle = cv2.fitEllipse(blob.contour)
     a, b = 0.5 * max(w, h), 0.5 * min(w, h)
     if b <= 0 or b < config.min_axis_ratio * a or SEARCH_SCALE * a < config.min_radius_px:
@@ -119,7 +128,7 @@ def _window(scene: Scene, blob: Blob) -> tuple[int, int, Mat, Mat] | None:
     """The blob's full-resolution window: origin, corrected BGR, and the blob's mask in it."""
     h, w = scene.image.shape[:2]
     bx, by, bw, bh = cv2.boundingRect(blob.contour)
-    pad = _RING_PX + SEARCH_SCALE
+    pad = _RING_PX + SEARCH_SCALE * (1 + blob.cut_px)
     x0, y0 = max(0, bx * SEARCH_SCALE - pad), max(0, by * SEARCH_SCALE - pad)
     x1 = min(w, (bx + bw) * SEARCH_SCALE + pad)
     y1 = min(h, (by + bh) * SEARCH_SCALE + pad)
@@ -134,10 +143,12 @@ def _window(scene: Scene, blob: Blob) -> tuple[int, int, Mat, Mat] | None:
     return x0, y0, roi, inside
 
 
-def _alpha(roi: Mat, inside: Mat, config: ShapeConfig) -> Mat | None:
+def _alpha(roi: Mat, inside: Mat, config: ShapeConfig, grow_px: int = 0) -> Mat | None:
     """The mark's coverage in its window (see the module docstring), or ``None`` when its
     chroma does not stand out from its ring's by ``min_contrast``."""
-    domain = cv2.dilate(inside, _DOMAIN_KERNEL) > 0
+    kernel = _DOMAIN_KERNEL if grow_px == 0 else cv2.getStructuringElement(
+        cv2.MORPH_ELLIPSE, (2 * (_DOMAIN_PX + grow_px) + 1,) * 2)
+    domain = cv2.dilate(inside, kernel) > 0
     ring = ~domain  # the rest of the window: up to _RING_PX beyond the blob's box
     core = cv2.erode(inside, _CORE_KERNEL) > 0
     if cv2.countNonZero(core.view(np.uint8)) < _MIN_PIXELS:
@@ -156,20 +167,19 @@ def _alpha(roi: Mat, inside: Mat, config: ShapeConfig) -> Mat | None:
     along = (step / float(step @ step)).reshape(1, 3)  # sums to 0: blind to grey
     along = along.astype(np.float32)
     projected = cv2.transform(roi.astype(np.float32), along).reshape(roi.shape[:2])
-    out: Mat = np.clip(projected - float(back @ along.ravel()), 0.0, 1.0)
-    out[~domain] = 0.0
+    out: Mat = ((projected >= float(back @ along.ravel()) + 0.5) & domain).astype(np.float32)
     return out
 
 
 def _measure_blob(scene: Scene, blob: Blob, config: ShapeConfig) -> Mark | None:
-    fit = screen(blob, config)
+    fit = blob.ellipse
     if fit is None:
         return None
     window = _window(scene, blob)
     if window is None:
         return None
     x0, y0, roi, inside = window
-    alpha = _alpha(roi, inside, config)
+    alpha = _alpha(roi, inside, config, SEARCH_SCALE * blob.cut_px)
     if alpha is None:
         return None
     ellipse = coverage_ellipse(alpha)
@@ -187,6 +197,7 @@ def _measure_blob(scene: Scene, blob: Blob, config: ShapeConfig) -> Mark | None:
 
 
 def measure(scene: Scene, config: ShapeConfig) -> Scene:
-    """The scene with the marks its blobs measure as (needs :mod:`.segment`)."""
+    """The scene with the marks its blobs measure as (needs :mod:`.segment`, which screens
+    them: :func:`screen`)."""
     marks = [m for m in (_measure_blob(scene, b, config) for b in scene.blobs) if m is not None]
     return replace(scene, marks=tuple(marks))
