@@ -8,11 +8,14 @@ levels. The stage therefore applies a software gain that brings the frame's ``pe
 brightest value (max of B, G, R) to ``target_value`` (never below 1×, never above
 ``max_gain``): after it, every value floor is relative to the frame's exposure. The light's
 colour is taken out by grey world on the channels' medians (robust to a mark or a board
-filling a tenth of the frame), each channel's correction bounded by ``max_cast``: a tinted
+filling a tenth of the frame), each channel's correction bounded by :data:`MAX_CAST` and its
+green–magenta part by ``tint_limit``: a tinted
 lamp's greys come back grey (their saturation, which the floors read, falls back), while a
 room whose walls are really coloured is corrected only so far. Both corrections are one
-per-channel table (``Scene.lut``) applied to the half-size search image here and to the
-full-resolution windows the marks are measured in (:mod:`.shape`).
+per-channel gain (``Scene.gains``), applied through a table (``Scene.lut``) to the half-size
+search image; the marks are measured in the frame's own pixels, where a blurred rim still mixes
+paint and surroundings linearly (no channel clipped by the gain), and judged in corrected units
+(:mod:`.shape`).
 """
 
 from __future__ import annotations
@@ -24,12 +27,16 @@ import numpy as np
 
 from marknav.vision.detect.scene import SEARCH_SCALE, Mat, Scene
 
-__all__ = ["PhotometryConfig", "correction_table", "photometry"]
+__all__ = ["MAX_CAST", "PhotometryConfig", "correction_gains", "correction_table", "photometry",
+           "table_of"]
 
 #: Rows and columns of the search image sampled for the frame's statistics (every n-th):
 #: percentiles and medians of 1/16 of the pixels differ from the whole frame's by under a grey
 #: level on the project's frames, at 1/16 of the cost.
 _SAMPLE_STEP = 4
+#: Largest per-channel light-colour correction (×, and 1/× down): a lamp from 2700 K to
+#: 6500 K moves the blue-to-red ratio by about 1.6× each way from daylight.
+MAX_CAST = 1.6
 
 
 @dataclass(frozen=True)
@@ -45,9 +52,13 @@ class PhotometryConfig:
     #: Largest software gain (×): 8× is three stops, what a dim room under-exposes a camera
     #: metering a window or lamp by; more amplifies noise into colour.
     max_gain: float = 8.0
-    #: Largest per-channel light-colour correction (×, and 1/× down): a lamp from 2700 K to
-    #: 6500 K moves the blue-to-red ratio by about 1.6× each way from daylight. 1: none.
-    max_cast: float = 1.6
+    #: Largest green–magenta part of the light-colour correction (natural log of the green
+    #: gain over the mean of the blue and red ones' logs), or ``None`` for none: room lights
+    #: differ along blue–amber, and a strong green or magenta excess in a room's greys is a
+    #: painted wall or carpet, whose correction moves a yellow mark to orange. The robot's
+    #: detector sets it (``camera.detect.tint_limit``); photographs from unknown cameras
+    #: need plain grey world.
+    tint_limit: float | None = None
 
 
 def _percentile(channel: Mat, percent: float) -> float:
@@ -62,17 +73,36 @@ def _percentile(channel: Mat, percent: float) -> float:
 def correction_table(small: Mat, config: PhotometryConfig) -> Mat:
     """The per-channel 256×1×3 table of the exposure gain and light-colour correction for a
     search image ``small`` (BGR)."""
+    return table_of(correction_gains(small, config))
+
+
+def table_of(gains: Mat) -> Mat:
+    """The 256×1×3 table multiplying B, G, R by ``gains`` (rounded, clipped to 0..255)."""
+    levels = np.arange(256, dtype=np.float32)[:, None] * gains[None, :].astype(np.float32)
+    table: Mat = np.clip(levels + 0.5, 0, 255).astype(np.uint8).reshape(256, 1, 3)
+    return table
+
+
+def correction_gains(small: Mat, config: PhotometryConfig) -> Mat:
+    """The per-channel gains (B, G, R) of the exposure and light-colour correction for a
+    search image ``small`` (BGR)."""
     sample = np.ascontiguousarray(small[::_SAMPLE_STEP, ::_SAMPLE_STEP])
     channels = cv2.split(sample)
     medians = np.array([_percentile(c, 50.0) for c in channels]) + 1.0
-    cast = np.clip(float(medians.mean()) / medians, 1.0 / config.max_cast, config.max_cast)
+    cast = np.clip(float(medians.mean()) / medians, 1.0 / MAX_CAST, MAX_CAST)
+    if config.tint_limit is not None:
+        logs = np.log(cast)
+        tint = logs[1] - 0.5 * (logs[0] + logs[2])
+        excess = tint - float(np.clip(tint, -config.tint_limit, config.tint_limit))
+        # Take the excess out of green and put a third of it back on all three (grey stays).
+        logs += excess / 3.0 - np.array([0.0, excess, 0.0])
+        cast = np.exp(logs)
     balanced = [cv2.convertScaleAbs(c, alpha=float(k)) for c, k in zip(channels, cast, strict=True)]
     brightest = cv2.max(cv2.max(balanced[0], balanced[1]), balanced[2])
     bright = _percentile(brightest, config.percentile)
     gain = float(np.clip(config.target_value / max(bright, 1.0), 1.0, config.max_gain))
-    levels = np.arange(256, dtype=np.float32)[:, None] * (gain * cast)[None, :]
-    table: Mat = np.clip(levels + 0.5, 0, 255).astype(np.uint8).reshape(256, 1, 3)
-    return table
+    gains: Mat = gain * cast
+    return gains
 
 
 def photometry(scene: Scene, config: PhotometryConfig) -> Scene:
@@ -80,7 +110,8 @@ def photometry(scene: Scene, config: PhotometryConfig) -> Scene:
     h, w = scene.image.shape[:2]
     small = cv2.resize(scene.image, (max(1, w // SEARCH_SCALE), max(1, h // SEARCH_SCALE)),
                        interpolation=cv2.INTER_AREA)
-    lut = correction_table(small, config)
+    gains = correction_gains(small, config)
+    lut = table_of(gains)
     corrected = cv2.LUT(small, lut)
-    return replace(scene, lut=lut, small=corrected,
+    return replace(scene, gains=gains, lut=lut, small=corrected,
                    hsv=cv2.cvtColor(corrected, cv2.COLOR_BGR2HSV))

@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from marknav.vision.detect.classify import ClassifyConfig, classify
-from marknav.vision.detect.model import Mark
+from marknav.vision.detect.model import MIN_RADIUS_FLOOR_PX, Mark
 from marknav.vision.detect.photometry import PhotometryConfig, photometry
 from marknav.vision.detect.scene import Blob, Scene
 from marknav.vision.detect.segment import SegmentConfig, segment
@@ -47,6 +47,16 @@ class DetectorConfig:
     segment: SegmentConfig = field(default_factory=SegmentConfig)
     shape: ShapeConfig = field(default_factory=ShapeConfig)
     suppress: SuppressConfig = field(default_factory=SuppressConfig)
+
+    @classmethod
+    def for_camera(cls, *, focal_px: float, mark_radius_mm: float, max_range_mm: float,
+                   floor_px: float = MIN_RADIUS_FLOOR_PX) -> DetectorConfig:
+        """The default config with the minimum radius of a mark at ``max_range_mm`` (pinhole
+        model, r = f·R/d, less 10 % for blur and yaw), not below ``floor_px``."""
+        if not (focal_px > 0 and mark_radius_mm > 0 and max_range_mm > 0):
+            raise ValueError("focal_px, mark_radius_mm and max_range_mm must be positive")
+        r_min = max(floor_px, 0.9 * focal_px * mark_radius_mm / max_range_mm)
+        return cls().with_(shape={"min_radius_px": r_min})
 
     def with_(self, **changes: dict[str, Any]) -> DetectorConfig:
         """This config with some stages' fields changed: ``with_(shape={"min_fill": 0.7})``."""

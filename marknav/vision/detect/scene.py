@@ -42,14 +42,14 @@ class Blob:
 class Scene:
     """One frame as far as the stages have taken it. Stages fill fields; none changes one.
 
-    ``image``: the BGR frame; ``lut``: the per-channel table (256×1×3) that takes out its
-    exposure and the light's colour (:mod:`.photometry`); ``small``: the search image through
-    it; ``hsv``: its HSV; ``masks``: one per palette colour (:mod:`.classify`); ``blobs``
-    (:mod:`.segment`); ``marks`` (:mod:`.shape`, then
-    :mod:`.suppression`)."""
+    ``image``: the BGR frame; ``gains``: the per-channel gains (B, G, R) that take out its exposure
+    and the light's colour, ``lut`` the table applying them (:mod:`.photometry`); ``small``: the
+    search image through it; ``hsv``: its HSV; ``masks``: one per palette colour (:mod:`.classify`);
+    ``blobs`` (:mod:`.segment`); ``marks`` (:mod:`.shape`, then :mod:`.suppression`)."""
 
     image: U8Array
     palette: tuple[ColourRange, ...]
+    gains: Mat | None = None
     lut: Mat | None = None
     small: Mat | None = None
     hsv: Mat | None = None

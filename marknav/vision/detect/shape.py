@@ -6,23 +6,25 @@ end or a pair of touching things do not), its outline must follow the ellipse
 (``max_outline_share``) and it must be no flatter than ``min_axis_ratio`` (a disc seen θ off
 its face has axis ratio cos θ).
 
-**Measure** (full resolution, a window around the blob): the window through the same
-correction table; a blurred rim mixes the paint's colour P (median inside the blob) and its
-surroundings' B (median of the window outside it) linearly, so each pixel's coverage α is its
-colour's projection on P − B, from 0 at B to 1 at P. The pixels of α ≥ 0.5 within the blob
-grown by a few pixels are the mark: across a symmetric blur the count of pixels past the
-mid-level is an unbiased area, and their image moments give centre and axes (a filled ellipse
-of semi-axes a, b has second moments a²/4, b²/4), so the radius is not biased by blur or by
-where a contour runs through the rim's pixels: the range (∝ 1/h) depends on it.
+**Measure** (full resolution, a window of the frame's own pixels around the blob: the correction's
+gain could clip a channel, and clipping is not linear): a blurred rim mixes the paint's colour P
+(median inside the blob) and its surroundings' B (median of the window outside it) linearly, so each
+pixel's coverage α is its colour's projection on P − B, from 0 at B to 1 at P. The pixels of α ≥ 0.5
+within the blob grown by a few pixels are the mark: across a symmetric blur the count of pixels past
+the mid-level is an unbiased area, and their image moments give centre and axes (a filled ellipse of
+semi-axes a, b has second moments a²/4, b²/4), so the radius is not biased by blur or by where a
+contour runs through the rim's pixels: the range (∝ 1/h) depends on it.
 
-**Vetoes** (those that pay on the tuning half): a mark whose chroma (colour less its grey)
-differs from its surroundings' by less than ``min_contrast`` (out-of-focus clutter of a
-palette hue is round but faint), or whose inside is textured beyond ``max_texture`` (paint is
-flat; foliage, fabric and skin are not).
+**Vetoes** (those that pay on the tuning half; judged in corrected levels, the gains of
+:mod:`.photometry` applied): a mark whose chroma (colour less its grey) differs from its
+surroundings' by less than ``min_contrast`` (out-of-focus clutter of a palette hue is round but
+faint), or whose inside is textured beyond ``max_texture`` (paint is flat; foliage, fabric and skin
+are not).
 """
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, replace
 
@@ -33,6 +35,8 @@ from marknav.vision.detect.model import Mark
 from marknav.vision.detect.scene import SEARCH_SCALE, Blob, Ellipse, Mat, Scene
 
 __all__ = ["ShapeConfig", "coverage_ellipse", "measure", "screen"]
+
+log = logging.getLogger("marknav.vision.detect")
 
 #: ``circle`` when minor/major is at least this (a disc turned under 25° reads as round).
 CIRCLE_RATIO = 0.9
@@ -82,6 +86,10 @@ class ShapeConfig:
     #: summed over B, G, R; levels): paint is flat (under 20 with sensor noise and shading),
     #: foliage, fabric and skin are not.
     max_texture: float = 30.0
+    #: Most blobs one frame's marks are measured from, the largest first: a crowded view (a
+    #: poster of coloured squares, a rug) passes hundreds through the screen at about 0.1 ms
+    #: each; the rest are left unmeasured. The project's frames pass at most 120.
+    max_blobs: int = 400
 
 
 def screen(blob: Blob, config: ShapeConfig) -> Ellipse | None:
@@ -94,7 +102,9 @@ def screen(blob: Blob, config: ShapeConfig) -> Ellipse | None:
         return None
     (x, y), (w, h), angle = cv2.fitEllipse(blob.contour)
     a, b = 0.5 * max(w, h), 0.5 * min(w, h)
-    if b <= 0 or b < config.min_axis_ratio * a or SEARCH_SCALE * a < config.min_radius_px:
+    # The outline runs through the rim's pixel centres, half a pixel inside the paint's edge.
+    if b <= 0 or b < config.min_axis_ratio * a or \
+            SEARCH_SCALE * (a + _QUANTUM_PX) < config.min_radius_px:
         return None
     if blob.area < config.min_fill * math.pi * a * b:
         return None
@@ -125,7 +135,7 @@ def coverage_ellipse(alpha: Mat) -> tuple[float, float, float, float, float] | N
 
 
 def _window(scene: Scene, blob: Blob) -> tuple[int, int, Mat, Mat] | None:
-    """The blob's full-resolution window: origin, corrected BGR, and the blob's mask in it."""
+    """The blob's full-resolution window: origin, the frame's BGR, and the blob's mask in it."""
     h, w = scene.image.shape[:2]
     bx, by, bw, bh = cv2.boundingRect(blob.contour)
     pad = _RING_PX + SEARCH_SCALE * (1 + blob.cut_px)
@@ -134,8 +144,7 @@ def _window(scene: Scene, blob: Blob) -> tuple[int, int, Mat, Mat] | None:
     y1 = min(h, (by + bh) * SEARCH_SCALE + pad)
     if x1 - x0 < 3 or y1 - y0 < 3:
         return None
-    assert scene.lut is not None
-    roi = cv2.LUT(np.ascontiguousarray(scene.image[y0:y1, x0:x1]), scene.lut)
+    roi = np.ascontiguousarray(scene.image[y0:y1, x0:x1])
     inside = np.zeros((y1 - y0, x1 - x0), np.uint8)
     # The contour's pixel centres, scaled: search pixel i covers full pixels 2i, 2i+1.
     full = blob.contour.astype(np.float32) * SEARCH_SCALE + (0.5 * (SEARCH_SCALE - 1))
@@ -143,7 +152,8 @@ def _window(scene: Scene, blob: Blob) -> tuple[int, int, Mat, Mat] | None:
     return x0, y0, roi, inside
 
 
-def _alpha(roi: Mat, inside: Mat, config: ShapeConfig, grow_px: int = 0) -> Mat | None:
+def _alpha(roi: Mat, inside: Mat, gains: Mat, config: ShapeConfig,
+           grow_px: int = 0) -> Mat | None:
     """The mark's coverage in its window (see the module docstring), or ``None`` when its
     chroma does not stand out from its ring's by ``min_contrast``."""
     kernel = _DOMAIN_KERNEL if grow_px == 0 else cv2.getStructuringElement(
@@ -156,14 +166,15 @@ def _alpha(roi: Mat, inside: Mat, config: ShapeConfig, grow_px: int = 0) -> Mat 
     pixels = roi.reshape(-1, 3)
     own = pixels[core.ravel()]
     paint = np.median(own, axis=0)
-    if float(np.median(np.abs(own - paint).sum(axis=1))) > config.max_texture:
+    if float(np.median((np.abs(own - paint) * gains).sum(axis=1))) > config.max_texture:
         return None
     behind = pixels[ring.ravel()]
     back = np.median(behind, axis=0) if len(behind) >= _MIN_PIXELS else np.zeros(3)
     step = paint - back
-    step -= step.mean()  # chroma: the grey (shading) removed
-    if np.linalg.norm(step) < max(config.min_contrast, 1.0):
-        return None
+    seen = step * gains
+    if np.linalg.norm(seen - seen.mean()) < max(config.min_contrast, 1.0):
+        return None  # judged in corrected levels, grey (shading) removed
+    step -= step.mean()
     along = (step / float(step @ step)).reshape(1, 3)  # sums to 0: blind to grey
     along = along.astype(np.float32)
     projected = cv2.transform(roi.astype(np.float32), along).reshape(roi.shape[:2])
@@ -179,7 +190,8 @@ def _measure_blob(scene: Scene, blob: Blob, config: ShapeConfig) -> Mark | None:
     if window is None:
         return None
     x0, y0, roi, inside = window
-    alpha = _alpha(roi, inside, config, SEARCH_SCALE * blob.cut_px)
+    assert scene.gains is not None
+    alpha = _alpha(roi, inside, scene.gains, config, SEARCH_SCALE * blob.cut_px)
     if alpha is None:
         return None
     ellipse = coverage_ellipse(alpha)
@@ -187,7 +199,7 @@ def _measure_blob(scene: Scene, blob: Blob, config: ShapeConfig) -> Mark | None:
         return None
     x, y, a, b, angle = ellipse
     (_, _), (sa, sb), _ = fit
-    if b < config.min_axis_ratio * a:
+    if b < config.min_axis_ratio * a or a < config.min_radius_px:
         return None
     fill = min(1.0, blob.area / (math.pi * sa * sb))
     return Mark(colour=scene.palette[blob.colour].name, x=x + x0, y=y + y0, radius=a,
@@ -199,5 +211,9 @@ def _measure_blob(scene: Scene, blob: Blob, config: ShapeConfig) -> Mark | None:
 def measure(scene: Scene, config: ShapeConfig) -> Scene:
     """The scene with the marks its blobs measure as (needs :mod:`.segment`, which screens
     them: :func:`screen`)."""
-    marks = [m for m in (_measure_blob(scene, b, config) for b in scene.blobs) if m is not None]
-    return replace(scene, marks=tuple(marks))
+    screened = sorted((b for b in scene.blobs if b.ellipse is not None), key=lambda b: -b.area)
+    if len(screened) > config.max_blobs:
+        log.warning("%d blobs look like marks; the largest %d measured", len(screened),
+                    config.max_blobs)
+    found = (_measure_blob(scene, b, config) for b in screened[:config.max_blobs])
+    return replace(scene, marks=tuple(m for m in found if m is not None))
