@@ -36,6 +36,8 @@ class Blob:
     ellipse: Ellipse | None = None
     #: Search-image pixels the blob may have lost at its rim to :mod:`.segment`'s cut.
     cut_px: int = 0
+    #: Whether the blob is two pieces joined across a thin occluder (:mod:`.segment`).
+    bridged: bool = False
 
 
 @dataclass(frozen=True, eq=False)

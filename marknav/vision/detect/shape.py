@@ -98,7 +98,8 @@ def screen(blob: Blob, config: ShapeConfig) -> Ellipse | None:
     r_min = config.min_radius_px / SEARCH_SCALE
     if blob.area < config.min_fill * config.min_axis_ratio * math.pi * r_min * r_min:
         return None
-    if max(cv2.boundingRect(blob.contour)[2:]) < 2.0 * r_min * _MIN_EXTENT:
+    if len(blob.contour) < _MIN_PIXELS + 1 or \
+            max(cv2.boundingRect(blob.contour)[2:]) < 2.0 * r_min * _MIN_EXTENT:
         return None
     (x, y), (w, h), angle = cv2.fitEllipse(blob.contour)
     a, b = 0.5 * max(w, h), 0.5 * min(w, h)
@@ -172,9 +173,13 @@ def _alpha(roi: Mat, inside: Mat, gains: Mat, config: ShapeConfig,
     back = np.median(behind, axis=0) if len(behind) >= _MIN_PIXELS else np.zeros(3)
     step = paint - back
     seen = step * gains
-    if np.linalg.norm(seen - seen.mean()) < max(config.min_contrast, 1.0):
+    # A piece cut from a surface of its hue has shown its edge against it: no faint blob.
+    floor = 1.0 if grow_px else config.min_contrast
+    if np.linalg.norm(seen - seen.mean()) < max(floor, 1.0):
         return None  # judged in corrected levels, grey (shading) removed
     step -= step.mean()
+    if float(step @ step) < 1.0:
+        return None  # paint and surroundings of one chroma: nothing to measure by
     along = (step / float(step @ step)).reshape(1, 3)  # sums to 0: blind to grey
     along = along.astype(np.float32)
     projected = cv2.transform(roi.astype(np.float32), along).reshape(roi.shape[:2])
@@ -194,6 +199,12 @@ def _measure_blob(scene: Scene, blob: Blob, config: ShapeConfig) -> Mark | None:
     alpha = _alpha(roi, inside, scene.gains, config, SEARCH_SCALE * blob.cut_px)
     if alpha is None:
         return None
+    if blob.bridged:  # the paint's hull: the occluder's strip is the mark's too
+        paint = cv2.findNonZero((alpha > 0).astype(np.uint8))
+        if paint is None:
+            return None
+        alpha = np.zeros_like(alpha)
+        cv2.fillConvexPoly(alpha, cv2.convexHull(paint), 1.0)
     ellipse = coverage_ellipse(alpha)
     if ellipse is None:
         return None
