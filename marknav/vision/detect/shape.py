@@ -102,9 +102,10 @@ class ShapeConfig:
     #: Largest texture inside the mark: the median absolute deviation from its median colour
     #: (summed over B, G, R) as a share of that colour's chroma (its distance from grey, summed
     #: over B, G, R), so neither the exposure nor the gain changes it. Paint is flat, foliage,
-    #: fabric and skin vary by as much as their colour: on the tuning half recall holds from
-    #: 0.1 to 0.3 and falls below 0.07 (marks' shading and noise), false marks rise above it.
-    max_texture: float = 0.12
+    #: fabric and skin vary by as much as their colour. On the tuning half recall holds from
+    #: 0.1 to 0.3 and falls below 0.07 (marks' shading and noise); 0.2 is the middle of that
+    #: plateau (a glossy sweet's highlights measure 0.17).
+    max_texture: float = 0.2
     #: Most blobs one frame's marks are measured from, the largest first: a crowded view (a
     #: poster of coloured squares, a rug) passes hundreds through the screen at about 0.1 ms
     #: each; the rest are left unmeasured. The project's frames pass at most 120.
