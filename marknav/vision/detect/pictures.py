@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 
 from marknav.vision.detect.pipeline import DetectorConfig, run_stages
-from marknav.vision.detect.scene import SEARCH_SCALE, Scene, U8Array
+from marknav.vision.detect.scene import SEARCH_SCALE, Mat, Scene, U8Array
 from marknav.vision.palette import DEFAULT_PALETTE, ColourRange
 
 __all__ = ["demo_scene", "stage_pictures"]
@@ -22,6 +22,8 @@ _W, _H = 640, 480
 #: The lamp's colour (B, G, R gains) and the room's exposure (a share of full scale).
 _WARM = np.array([0.75, 1.0, 1.25])
 _DIM = 0.3
+#: Where the blurred blob shows (sum of its B, G, R levels).
+_BLOB_EDGE = 30.0
 
 
 def _paint(colour: ColourRange, saturation: float = 1.0) -> tuple[float, float, float]:
@@ -40,18 +42,19 @@ def demo_scene() -> U8Array:
     cv2.circle(img, (470, 240), 36, _paint(by["blue"]), -1, cv2.LINE_AA)
     cv2.rectangle(img, (466, 120), (473, 299), (90.0, 90.0, 90.0), -1)  # a pole before it
     cv2.rectangle(img, (560, 200), (620, 222), _paint(by["yellow"]), -1)  # a bar
-    blob = np.zeros_like(img)
-    cv2.circle(blob, (390, 110), 22, _paint(by["orange"]), -1)
-    blob = cv2.GaussianBlur(blob, (0, 0), 9.0)  # out of focus, faint
-    img = np.where(blob.sum(axis=2, keepdims=True) > 30, 0.6 * img + 0.4 * blob, img)
-    lit = img * _WARM * _DIM
+    sharp = np.zeros_like(img)
+    cv2.circle(sharp, (390, 110), 22, _paint(by["orange"]), -1)
+    blob: Mat = cv2.GaussianBlur(sharp, (0, 0), 9.0)  # out of focus, faint
+    shown: Mat = np.where(blob.sum(axis=2, keepdims=True) > _BLOB_EDGE,
+                          0.6 * img + 0.4 * blob, img)
+    lit = shown * _WARM * _DIM
     rng = np.random.default_rng(0)
     noisy = lit + rng.normal(0.0, 1.5, lit.shape)
     out: U8Array = np.clip(noisy, 0, 255).astype(np.uint8)
     return out
 
 
-def _png(image: U8Array) -> bytes:
+def _png(image: Mat) -> bytes:
     ok, data = cv2.imencode(".png", image)
     if not ok:
         raise RuntimeError("PNG encoding failed")
@@ -60,7 +63,7 @@ def _png(image: U8Array) -> bytes:
 
 def _masks_picture(scene: Scene) -> U8Array:
     assert scene.small is not None
-    out = np.zeros_like(scene.small)
+    out: U8Array = np.zeros_like(scene.small)
     for colour, mask in zip(scene.palette, scene.masks, strict=True):
         hsv = np.array([[[colour.centre_hue, 255, 255]]], np.uint8)
         out[mask > 0] = cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR)[0, 0]
@@ -69,7 +72,7 @@ def _masks_picture(scene: Scene) -> U8Array:
 
 def _blobs_picture(scene: Scene) -> U8Array:
     assert scene.small is not None
-    out = (scene.small // 3).astype(np.uint8)
+    out: U8Array = (scene.small // 3).astype(np.uint8)
     for blob in scene.blobs:
         shaped = blob.ellipse is not None
         cv2.drawContours(out, [blob.contour], -1, (255, 255, 255) if shaped else (0, 0, 200),
@@ -78,7 +81,7 @@ def _blobs_picture(scene: Scene) -> U8Array:
 
 
 def _marks_picture(image: U8Array, scene: Scene) -> U8Array:
-    out = image.copy()
+    out: U8Array = image.copy()
     for m in scene.marks:
         cv2.ellipse(out, ((m.x, m.y), (2 * m.axes[0], 2 * m.axes[1]), m.angle_deg),
                     (255, 255, 255), 2)
