@@ -34,6 +34,9 @@ semi-axis (range ∝ 1/h, :func:`marknav.vision.estimate.estimate_disc`).
 **Ablation**: the detector with one stage switched off at a time (its config flag), and the
 least OpenCV detector (:func:`marknav.vision.detect.least.least_opencv_detector`) as the floor; per
 variant recall, false marks per frame, range error p95 and cost (ms, p50) on the held-out half.
+The pipeline detector (:mod:`marknav.vision.detect.pipeline`) is scored beside it, with its own
+ablation (:data:`PIPELINE_ABLATIONS`: a stage replaced by a plain one, or the config that
+switches a part off).
 """
 
 from __future__ import annotations
@@ -51,10 +54,13 @@ import numpy as np
 
 from marknav.sim.synthetic.scene import Image, SceneSpec, render_scene
 from marknav.vision.detect import Detector, DetectorConfig, Mark
+from marknav.vision.detect import pipeline as pipe
+from marknav.vision.detect.scene import SEARCH_SCALE, Scene
 from marknav.vision.estimate import upright_extents
 from marknav.vision.palette import DEFAULT_PALETTE, Palette
 
-__all__ = ["ABLATIONS", "Frame", "Truth", "half", "holdout_report", "load_corpora", "score"]
+__all__ = ["ABLATIONS", "PIPELINE_ABLATIONS", "Frame", "Truth", "half", "holdout_report",
+           "load_corpora", "pipeline_detector", "score"]
 
 Half = Literal["tuning", "held_out"]
 
@@ -70,6 +76,61 @@ ABLATIONS: dict[str, dict[str, Any]] = {
     "bridging thin occluders": {"bridge_px": 0.0},
     "opening": {"open_size": 1},
 }
+
+
+def _plain_photometry(scene: Scene, config: pipe.DetectorConfig) -> Scene:
+    """Photometry switched off: the search image at half size, no gain, no light correction."""
+    from dataclasses import replace as replaced
+
+    from marknav.vision.detect.photometry import table_of
+
+    h, w = scene.image.shape[:2]
+    small = cv2.resize(scene.image, (max(1, w // SEARCH_SCALE), max(1, h // SEARCH_SCALE)),
+                       interpolation=cv2.INTER_AREA)
+    gains = np.ones(3)
+    return replaced(scene, gains=gains, lut=table_of(gains), small=small,
+                    hsv=cv2.cvtColor(small, cv2.COLOR_BGR2HSV))
+
+
+def _no_suppression(scene: Scene, config: pipe.DetectorConfig) -> Scene:
+    """Suppression switched off: every measured mark, largest first."""
+    from dataclasses import replace as replaced
+
+    return replaced(scene, marks=tuple(sorted(scene.marks, key=lambda m: -m.radius)))
+
+
+#: The pipeline detector's parts that can be switched off: a stage replaced (name, plain
+#: stage) or config changes per stage.
+PIPELINE_ABLATIONS: dict[str, tuple[str, pipe.Stage] | dict[str, dict[str, Any]]] = {
+    "photometry (gain and light colour)": ("photometry", _plain_photometry),
+    "exposure gain": {"photometry": {"max_gain": 1.0}},
+    "pale-paint floors (sat_share 1)": {"classify": {"sat_share": 1.0}},
+    "cut along colour edges": {"segment": {"edge_step": 0.0}},
+    "joining across thin occluders": {"segment": {"bridge_px": 0}},
+    "outline test": {"shape": {"max_outline_share": 1e9}},
+    "contrast veto": {"shape": {"min_contrast": 0.0}},
+    "texture veto": {"shape": {"max_texture": 1e9}},
+    "suppression": ("suppress", _no_suppression),
+}
+
+
+def pipeline_detector(palette: Palette,
+                      change: tuple[str, pipe.Stage] | dict[str, dict[str, Any]] | None = None,
+                      ) -> Callable[[Image], list[Mark]]:
+    """The pipeline detector of ``palette`` with one :data:`PIPELINE_ABLATIONS` entry applied
+    (``None``: none)."""
+    config = pipe.DetectorConfig()
+    stages = pipe.STAGES
+    if isinstance(change, tuple):
+        stages = tuple(change if name == change[0] else (name, st) for name, st in pipe.STAGES)
+    elif change:
+        config = config.with_(**change)
+    return lambda image: list(pipe.run_stages(image, palette, config, stages=stages).marks)
+
+
+def _ablated(change: tuple[str, pipe.Stage] | dict[str, dict[str, Any]],
+             ) -> Callable[[Palette], Callable[[Image], list[Mark]]]:
+    return lambda palette: pipeline_detector(palette, change)
 
 
 def half(corpus: str, name: str) -> Half:
@@ -367,6 +428,13 @@ def holdout_report(root: str | Path, *, ablate: bool = True, **sizes: int) -> di
                 table[f"without {stage}"] = score(held, detector(**change))
             table["least OpenCV detector"] = score(held, least_opencv_detector)
             out["ablation_held_out"] = table
+        out["pipeline"] = {h: score(fs, pipeline_detector) for h, fs in halves.items()}
+        if ablate:
+            held = halves["held_out"]
+            rows: dict[str, Any] = {"all stages": out["pipeline"]["held_out"]}
+            for part, off in PIPELINE_ABLATIONS.items():
+                rows[f"without {part}"] = score(held, _ablated(off))
+            out["pipeline_ablation_held_out"] = rows
     finally:
         cv2.setNumThreads(previous)
     return out
