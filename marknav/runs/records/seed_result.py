@@ -8,7 +8,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from marknav.runs.records.report import DOUBTFUL, PASSED_OUTCOMES, SUCCESS, RunReport, reached
+from marknav.runs.records.report import (
+    PASSED_OUTCOMES,
+    SUCCESS,
+    UNSURE_OUTCOMES,
+    RunReport,
+    reached,
+)
 
 __all__ = ["ERROR", "RANDOM", "SeedResult", "WaypointTruth", "random_replay_command",
            "replay_command"]
@@ -31,7 +37,7 @@ class WaypointTruth:
 
     colour: str
     side: str
-    outcome: str  # "passed" | "doubtful" | "failed" | "pending"
+    outcome: str  # "passed" | "doubtful" | "unverified" | "failed" | "pending"
     passed_on: str | None
     min_clearance_mm: float | None
     truth: str | None = None
@@ -60,8 +66,8 @@ class WaypointTruth:
 
     @property
     def doubtful(self) -> bool:
-        """The robot reported the pass doubtful."""
-        return self.outcome == DOUBTFUL
+        """The robot reported the pass doubtful or unverified (not sure of it)."""
+        return self.outcome in UNSURE_OUTCOMES
 
     def describe(self) -> str:
         """What the truth says of a waypoint it does not confirm."""
@@ -79,7 +85,7 @@ class SeedResult:
     """
 
     seed: int
-    outcome: str  # "success" | "failed" | "aborted" | "error"
+    outcome: str  # "success" | "unverified" | "failed" | "aborted" | "error"
     reason: str
     sim_time_s: float
     wall_time_s: float
