@@ -347,6 +347,17 @@ def write_interrupted(req: RunRequest, exc: KeyboardInterrupt, when: str) -> Non
         _finish(req, req.mission, None, None, report, events)
 
 
+def mark_unconfirmed(report: RunReport) -> None:
+    """A run that passed every waypoint, one or more of them ``doubtful`` or ``unverified``
+    by the robot's own evidence, ends ``unverified`` (not ``success``), its reason naming them."""
+    doubts = [f"waypoint {i} ({w.colour}) {w.outcome}: {w.doubt}"
+              for i, w in enumerate(report.waypoints, start=1) if w.outcome in UNSURE_OUTCOMES]
+    if report.outcome == SUCCESS and doubts:
+        report.outcome = UNVERIFIED
+        report.reason += (f", but {len(doubts)} of them not confirmed by the robot's own "
+                          "evidence: " + "; ".join(doubts))
+
+
 def _finish(req: RunRequest, mission: Mission, env: Environment | None,
             result: RunResult | None, report: RunReport, events: EventLog,
             root: py_trees.behaviour.Behaviour | None = None) -> None:
@@ -355,12 +366,7 @@ def _finish(req: RunRequest, mission: Mission, env: Environment | None,
     req.finishing = True
     failure: Exception | None = None
     extra: dict[str, Any] = {}
-    doubts = [f"waypoint {i} ({w.colour}) {w.outcome}: {w.doubt}"
-              for i, w in enumerate(report.waypoints, start=1) if w.outcome in UNSURE_OUTCOMES]
-    if report.outcome == SUCCESS and doubts:
-        report.outcome = UNVERIFIED
-        report.reason += (f", but {len(doubts)} of them not confirmed by the robot's own "
-                          "evidence: " + "; ".join(doubts))
+    mark_unconfirmed(report)
     try:
         if env is not None:
             env.close()
