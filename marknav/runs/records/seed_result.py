@@ -197,7 +197,7 @@ def replay_command(mission_path: str, seed: int, max_time_s: float | None = None
     """The ``marknav run`` command that replays evaluation run ``seed`` exactly."""
     flag = f" --engine {engine}" if engine is not None else ""
     if mission_path == RANDOM:
-        return random_replay_command(seed, max_time_s) + flag
+        return random_replay_command(seed, max_time_s, engine)
     cmd = f"marknav run {shlex.quote(mission_path)} --world random --seed {seed}{flag}"
     cmd += "".join(f" --set {shlex.quote(o)}" for o in overrides)
     if max_time_s is not None:
@@ -205,12 +205,14 @@ def replay_command(mission_path: str, seed: int, max_time_s: float | None = None
     return cmd
 
 
-def random_replay_command(seed: int, max_time_s: float | None = None) -> str:
-    """The commands that rebuild random mission ``seed`` and run it exactly as the evaluation
-    did."""
+def random_replay_command(seed: int, max_time_s: float | None = None,
+                          engine: str | None = None) -> str:
+    """The commands that rebuild random mission ``seed`` (for ``engine``: MuJoCo's missions
+    have their own rooms) and run it exactly as the evaluation did."""
     out = f"runs/random-{seed}"
-    cmd = f"marknav random-mission --seed {seed} --out {out} && marknav run {out}/mission.yaml " \
-          f"--seed {seed}"
+    flag = f" --engine {engine}" if engine is not None else ""
+    cmd = f"marknav random-mission --seed {seed}{flag} --out {out} && marknav run " \
+          f"{out}/mission.yaml --seed {seed}{flag}"
     if max_time_s is not None:
         cmd += f" --max-time {max_time_s:g}"
     return cmd
