@@ -250,7 +250,8 @@ class VerifyPass(DrivingBehaviour):
         if record.check == REFUTED:
             return self.fail(f"{label} passed on its wrong side (found looking back)")
         if record.doubt is None:
-            self.feedback_message = f"{label}: pass confirmed by the bypass's own sightings"
+            # nothing to check: no message, so the bypass's stands for the waypoint's result
+            self.feedback_message = ""
         elif record.check == CONFIRMED:
             self.feedback_message = (f"{label}: pass confirmed looking back ({len(self.offsets)} "
                                      f"sightings, median {self._median()} on its side)")
