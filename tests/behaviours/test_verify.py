@@ -10,7 +10,8 @@ import pytest
 from py_trees.common import Status
 
 from marknav.behaviours import keys
-from marknav.behaviours.target import WaypointPassed
+from marknav.behaviours.bypass import BezierBypass
+from marknav.behaviours.target import SelectTarget, WaypointPassed
 from marknav.behaviours.verify import CONFIRMED, REFUTED, UNVERIFIED, VerifyPass, decide_side
 
 NORTH = math.pi / 2
@@ -118,3 +119,27 @@ def test_without_look_back_a_doubtful_pass_is_unverified_at_once(rig):
     tree.tick()
     assert node.status == Status.SUCCESS and record().check == UNVERIFIED
     assert rig.robot.wheels == (0, 0)
+
+
+def test_a_bypass_planned_on_a_misplaced_estimate_is_refuted_looking_back(rig):
+    """The bypass of test_bypass_doubt: planned from an estimate 650 mm east of the real mark,
+    which stays out of view during the bypass, so the pass is doubtful; looking back finds the
+    real mark on the robot's left — a pass on its right, the wrong side — and the waypoint fails
+    instead of being reported passed."""
+    rig.perception.place("red", x_mm=-700.0, y_mm=800.0)  # the real mark
+    estimate = keys.SeenMark("red", 800.0, 50.0, -50.0, 800.0, 319.5 + 590.0 * 50.0 / 800.0,
+                             74.0, 640, 0.0)
+    bb = py_trees.blackboard.Blackboard
+    bb.set(keys.TARGET, keys.Target(waypoint=0, waypoint_id="waypoint-0-red", colour="red",
+                                    side="left", sighting=estimate, world_x=-50.0,
+                                    world_y=800.0))
+    bb.set(keys.FRAME, keys.FrameInfo(index=1, t=0.0, width=640, height=480, marks=1))
+    verify = VerifyPass()
+    pass_ = py_trees.composites.Sequence("Pass", memory=True, children=[
+        SelectTarget(colour="red", waypoint=0), BezierBypass(margin_mm=0.0), verify])
+    root = py_trees.composites.Sequence("Root", memory=False, children=[rig.perception, pass_])
+    tree = rig.tree(root)
+    log = rig.run(tree, Status.FAILURE, max_ticks=600)
+    assert log.reached, log
+    assert record().doubt is not None and record().check == REFUTED
+    assert verify.feedback_message.startswith("red #1 passed on its wrong side: looking back")
