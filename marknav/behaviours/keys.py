@@ -265,7 +265,7 @@ class KnownMark:
 class PassedWaypoint:
     """A waypoint whose mark was passed: when, on which side, where the robot believed it was,
     and ``doubt``: why the robot's own evidence (its sightings against the path it drove) does
-    not confirm the pass (``None``: it does)."""
+    not confirm the pass (``None``: it does), and ``check``: what looking back at it decided."""
 
     waypoint: int
     waypoint_id: str
@@ -275,6 +275,10 @@ class PassedWaypoint:
     mark_x: float
     mark_y: float
     doubt: str | None = None
+    #: A doubtful pass checked by looking back (:mod:`marknav.behaviours.verify`):
+    #: ``"confirmed"``, ``"refuted"`` or ``"unverified"``; ``None``: not checked (no doubt, or
+    #: not yet).
+    check: str | None = None
 
 
 @dataclass(frozen=True)

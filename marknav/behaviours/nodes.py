@@ -18,6 +18,10 @@ TargetSeen               ``Seen?`` (``lost_after_s``)
 TargetLocked             ``Bypassing?`` (``{colour, waypoint}`` or any waypoint)
 WaypointPassed           ``Passed?`` (``{colour, waypoint}``)
 SearchWhenLost           turn until the target is seen (``turn_speed_deg_s``, ``timeout_s``)
+ReturnToSighting         drive back to where the target was seen, turn (``distance_mm``, ...)
+AdvanceAlongCourse       drive on along the course, turn (``distance_mm``, ``speed_mm_s``)
+Search                   Selector(memory) of Spin, Return, Advance (navigation.search)
+VerifyPass               look back at a doubtful pass and decide its side
 ApproachWhileCentring    approach keeping the mark centred (``speed_mm_s``, ``steer_gain``, ...)
 BezierBypass             plan and track the bypass (``clearance_mm``, ``lookahead_mm``, ...)
 Waypoint                 the whole waypoint subtree (``{colour, side?, index?}``)
@@ -35,9 +39,10 @@ from pydantic import BaseModel, ConfigDict, Field
 from marknav.behaviours.approach import THRESHOLD_SPEED_FRACTION, ApproachWhileCentring
 from marknav.behaviours.bypass import BezierBypass
 from marknav.behaviours.perception import DEFAULT_CAMERA_TIMEOUT_S, Perception
-from marknav.behaviours.route import bump_recovery, route, waypoint
+from marknav.behaviours.route import bump_recovery, route, search_strategy, waypoint
 from marknav.behaviours.safety import BackOff, NotBumped, SafetyGuard
 from marknav.behaviours.search import SearchWhenLost
+from marknav.behaviours.search_steps import AdvanceAlongCourse, ReturnToSighting
 from marknav.behaviours.target import (
     SelectTarget,
     TargetLocked,
@@ -45,6 +50,7 @@ from marknav.behaviours.target import (
     WaypointPassed,
     waypoint_id_for,
 )
+from marknav.behaviours.verify import VerifyPass
 from marknav.core.errors import InputError
 from marknav.missions.registry import BuildContext, NodeRegistry, NoParams
 from marknav.missions.schema import Mission
@@ -121,6 +127,23 @@ class SearchParams(BaseModel):
                                            description="Default: navigation.search.")
     timeout_s: float | None = Field(None, gt=0, allow_inf_nan=False,
                                     description="Default: navigation.search.")
+
+
+class SearchStepParams(BaseModel):
+    """Drive a leg of a search (back to the last sighting, or on along the course), then turn."""
+
+    model_config = _FORBID
+    distance_mm: float | None = Field(None, ge=0, allow_inf_nan=False,
+                                      description="Default: navigation.search.")
+    speed_mm_s: float | None = Field(None, gt=0, le=500, allow_inf_nan=False,
+                                     description="Default: navigation.search.drive_speed_mm_s.")
+
+
+class PassedParams(WaypointRef):
+    """SUCCESS once the waypoint was passed."""
+
+    wait_for_check: bool = Field(False, description="A doubtful pass counts only once a "
+                                 "VerifyPass after the bypass has checked it.")
 
 
 class ApproachParams(BaseModel):
@@ -220,14 +243,31 @@ def _target_locked(name: str, params: LockedParams, context: BuildContext) -> Be
     return TargetLocked(name, waypoint_id=wid)
 
 
-def _waypoint_passed(name: str, params: WaypointRef, context: BuildContext) -> Behaviour:
+def _waypoint_passed(name: str, params: PassedParams, context: BuildContext) -> Behaviour:
     _check_colour(context, params.colour, "WaypointPassed")
-    return WaypointPassed(name, waypoint_id=waypoint_id_for(params.waypoint, params.colour))
+    return WaypointPassed(name, waypoint_id=waypoint_id_for(params.waypoint, params.colour),
+                          wait_for_check=params.wait_for_check)
 
 
 def _search(name: str, params: SearchParams, _: BuildContext) -> Behaviour:
     return SearchWhenLost(name, turn_speed_deg_s=params.turn_speed_deg_s,
                           timeout_s=params.timeout_s)
+
+
+def _return_step(name: str, params: SearchStepParams, _: BuildContext) -> Behaviour:
+    return ReturnToSighting(name, distance_mm=params.distance_mm, speed_mm_s=params.speed_mm_s)
+
+
+def _advance_step(name: str, params: SearchStepParams, _: BuildContext) -> Behaviour:
+    return AdvanceAlongCourse(name, distance_mm=params.distance_mm, speed_mm_s=params.speed_mm_s)
+
+
+def _search_strategy(name: str, _params: NoParams, _: BuildContext) -> Behaviour:
+    return search_strategy(name)
+
+
+def _verify(name: str, _params: NoParams, _: BuildContext) -> Behaviour:
+    return VerifyPass(name)
 
 
 def _approach(name: str, params: ApproachParams, _: BuildContext) -> Behaviour:
@@ -276,9 +316,19 @@ def register(registry: NodeRegistry) -> None:
     registry.register("SelectTarget", _select_target, SelectTargetParams)
     registry.register("TargetSeen", _target_seen, SeenParams)
     registry.register("TargetLocked", _target_locked, LockedParams)
-    registry.register("WaypointPassed", _waypoint_passed, WaypointRef,
-                      description="SUCCESS once the waypoint was passed.")
+    registry.register("WaypointPassed", _waypoint_passed, PassedParams)
     registry.register("SearchWhenLost", _search, SearchParams)
+    registry.register("ReturnToSighting", _return_step, SearchStepParams,
+                      description="Face where the target was last seen (or is predicted), "
+                      "drive to the range it was seen from, turn once more.")
+    registry.register("AdvanceAlongCourse", _advance_step, SearchStepParams,
+                      description="Drive on along the course, then turn once more.")
+    registry.register("Search", _search_strategy, NoParams,
+                      description="Selector(memory=True) of Spin, Return and Advance, with "
+                      "navigation.search's settings; the last step's message tells the search.")
+    registry.register("VerifyPass", _verify, NoParams,
+                      description="After a bypass: look back at a doubtful pass and decide its "
+                      "side (navigation.verify_pass).")
     registry.register("ApproachWhileCentring", _approach, ApproachParams)
     registry.register("BezierBypass", _bypass, BypassParams)
     registry.register("Waypoint", _waypoint, WaypointParams)

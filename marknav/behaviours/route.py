@@ -18,9 +18,13 @@
         │       │   └── CloseIn      Sequence(memory=False)   reactive lost check
         │       │       ├── Seen?|Search  Selector(memory=False)
         │       │       │   ├── Seen?     target seen within lost_after_s
-        │       │       │   └── Search    turn until seen; FAILURE on timeout / full turn
+        │       │       │   └── Search    Selector(memory=True): the steps of a search
+        │       │       │       ├── Spin     a full turn on the spot toward where it should be
+        │       │       │       ├── Return   face where it was last seen, drive there, turn
+        │       │       │       └── Advance  drive on along the course, turn
         │       │       └── Approach      centre the mark and drive; SUCCESS at the threshold
-        │       └── Bypass       Bézier bypass on the colour's side; records the waypoint passed
+        │       ├── Bypass       Bézier bypass on the colour's side; records the waypoint passed
+        │       └── Verify       a doubtful pass: look back at the mark, decide its side
         └── Waypoint 2 ...
 
 Preemption: Perception, SafetyGuard and BumpRecovery are re-evaluated every tick ahead of the
@@ -49,7 +53,8 @@ from marknav.behaviours.bypass import BezierBypass
 from marknav.behaviours.keys import Side
 from marknav.behaviours.perception import Perception
 from marknav.behaviours.safety import BackOff, NotBumped, SafetyGuard
-from marknav.behaviours.search import SearchWhenLost
+from marknav.behaviours.search import SearchLog, SearchWhenLost
+from marknav.behaviours.search_steps import AdvanceAlongCourse, ReturnToSighting
 from marknav.behaviours.target import (
     SelectTarget,
     TargetLocked,
@@ -57,11 +62,13 @@ from marknav.behaviours.target import (
     WaypointPassed,
     waypoint_id_for,
 )
+from marknav.behaviours.verify import VerifyPass
 
 if TYPE_CHECKING:
     from marknav.missions.schema import Mission
 
-__all__ = ["Failure", "build_route_tree", "bump_recovery", "failure_reason", "route", "waypoint"]
+__all__ = ["Failure", "build_route_tree", "bump_recovery", "failure_reason", "route",
+           "search_strategy", "waypoint"]
 
 
 def waypoint(
@@ -89,7 +96,7 @@ def waypoint(
         name = (f"Waypoint {index + 1}: {colour}{where}" if index is not None
                 else f"Waypoint: {colour}{where}")
     seen_or_search = Selector(
-        "Seen?|Search", memory=False, children=[TargetSeen(), SearchWhenLost()])
+        "Seen?|Search", memory=False, children=[TargetSeen(), search_strategy()])
     close_in = Sequence(
         "CloseIn", memory=False, children=[seen_or_search, ApproachWhileCentring()])
     reach = Selector(
@@ -98,9 +105,24 @@ def waypoint(
         SelectTarget(colour=colour, side=side, waypoint=number, waypoint_id=wid),
         reach,
         BezierBypass(),
+        VerifyPass(),
     ])
     return Selector(name, memory=False, children=[
-        WaypointPassed(waypoint_id=wid), pass_])
+        WaypointPassed(waypoint_id=wid, wait_for_check=True), pass_])
+
+
+def search_strategy(name: str = "Search") -> Behaviour:
+    """``Search``: Selector(memory=True) of the search's steps, each a leaf
+    (:mod:`marknav.behaviours.search_steps`): ``Spin`` (a full turn on the spot), ``Return``
+    (to where the target was last seen or is predicted), ``Advance`` (on along the course),
+    sharing one :class:`~marknav.behaviours.search.SearchLog` so the step that gives up says
+    what the whole search did."""
+    log = SearchLog()
+    return Selector(name, memory=True, children=[
+        SearchWhenLost("Spin", log=log),
+        ReturnToSighting(log=log),
+        AdvanceAlongCourse(log=log),
+    ])
 
 
 def route(mission: Mission, *, name: str = "Route") -> Behaviour:

@@ -28,7 +28,7 @@ same as soon as the remembered position is in view and nothing is seen there.)
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, field, replace
 from typing import Any, ClassVar
 
 from py_trees.common import Status
@@ -38,10 +38,30 @@ from marknav.behaviours.base import DrivingBehaviour, SetupError, check_positive
 from marknav.behaviours.target import excluded_passes, gate_mm, reselect
 from marknav.planning.kinematics import Pose, to_robot_frame, wrap_angle
 
-__all__ = ["SearchWhenLost", "search_direction"]
+__all__ = ["SearchLog", "SearchWhenLost", "search_direction"]
 
 LEFT = 1  # counter-clockwise
 RIGHT = -1  # clockwise
+
+
+@dataclass
+class SearchLog:
+    """What a search's steps did, in order, for the message of the step that gives up. The first
+    step (the spin) clears it when a search begins."""
+
+    steps: list[str] = field(default_factory=list)
+    #: The robot's heading when the search began (rad): the course before any bypass.
+    start_heading: float | None = None
+
+    def begin(self, heading: float) -> None:
+        self.steps.clear()
+        self.start_heading = heading
+
+    def add(self, text: str) -> None:
+        self.steps.append(text)
+
+    def summary(self) -> str:
+        return "; ".join(self.steps)
 
 
 def search_direction(
@@ -68,6 +88,9 @@ class SearchWhenLost(DrivingBehaviour):
     Args (``None`` takes the mission's ``navigation.search``):
         turn_speed_deg_s: turn rate, degrees per second.
         timeout_s: FAILURE after this long.
+        log: the :class:`SearchLog` of a search of several steps
+            (:mod:`marknav.behaviours.search_steps`): this, the first step, begins it and adds
+            what it did when it fails.
 
     Setup: ``robot``, ``clock``, ``mission`` (wheel base and the defaults above).
     """
@@ -81,8 +104,10 @@ class SearchWhenLost(DrivingBehaviour):
         *,
         turn_speed_deg_s: float | None = None,
         timeout_s: float | None = None,
+        log: SearchLog | None = None,
     ) -> None:
         super().__init__(name)
+        self.log = log
         self._turn_override = check_positive(turn_speed_deg_s, "turn_speed_deg_s")
         self._timeout_override = check_positive(timeout_s, "timeout_s")
         self.turn_speed_deg_s: float | None = turn_speed_deg_s
@@ -114,6 +139,8 @@ class SearchWhenLost(DrivingBehaviour):
         self._seen_t0 = (start.sighting.t if start is not None and start.sighting is not None
                          else -math.inf)
         pose = self.robot.pose()
+        if self.log is not None:
+            self.log.begin(pose.theta)
         self._last_theta = pose.theta
         self.turned_rad = 0.0
         self.forgot_memory = False
@@ -145,10 +172,10 @@ class SearchWhenLost(DrivingBehaviour):
                                      f"nearest {target.colour} instead")
             return Status.RUNNING
         if self.turned_rad >= math.tau:
-            return self.fail(f"{target.label} not found in a full turn ({elapsed:.1f} s)")
+            return self._give_up(target, f"not found in a full turn ({elapsed:.1f} s)")
         if elapsed >= self.timeout_s:
-            return self.fail(f"{target.label} not found in {self.timeout_s:g} s "
-                             f"(turned {math.degrees(self.turned_rad):.0f}°)")
+            return self._give_up(target, f"not found in {self.timeout_s:g} s "
+                                 f"(turned {math.degrees(self.turned_rad):.0f}°)")
         omega = self.direction * math.radians(self.turn_speed_deg_s)
         half = 0.5 * self.wheel_base_mm
         self.drive(left=-omega * half, right=omega * half)
@@ -157,6 +184,11 @@ class SearchWhenLost(DrivingBehaviour):
                                  f"{math.degrees(self.turned_rad):.0f}°, "
                                  f"{elapsed:.1f}/{self.timeout_s:g} s")
         return Status.RUNNING
+
+    def _give_up(self, target: keys.Target, why: str) -> Status:
+        if self.log is not None:
+            self.log.add(f"{self.name.lower()}: {why}")
+        return self.fail(f"{target.label} {why}")
 
     def _forget(self, target: keys.Target) -> None:
         """Drop the remembered mark the target was taken from, choose the target again (another

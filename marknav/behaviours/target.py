@@ -488,17 +488,28 @@ class TargetSeen(MarknavBehaviour):
 
 
 class WaypointPassed(MarknavBehaviour):
-    """``Passed?``: SUCCESS once ``/marknav/passed`` records this waypoint, else FAILURE."""
+    """``Passed?``: SUCCESS once ``/marknav/passed`` records this waypoint, else FAILURE.
+
+    With ``wait_for_check`` a doubtful pass counts only once it was checked (its ``check`` set
+    by :class:`~marknav.behaviours.verify.VerifyPass`, which must follow the bypass in the
+    waypoint), so an interrupted check resumes; a refuted pass never counts."""
 
     READS: ClassVar[tuple[str, ...]] = (keys.PASSED,)
 
-    def __init__(self, name: str = "Passed?", *, waypoint_id: str) -> None:
+    def __init__(self, name: str = "Passed?", *, waypoint_id: str,
+                 wait_for_check: bool = False) -> None:
         super().__init__(name)
         self.waypoint_id = waypoint_id
+        self.wait_for_check = wait_for_check
 
     def update(self) -> Status:
         passed: tuple[keys.PassedWaypoint, ...] = self.read(keys.PASSED, ())
         for record in passed:
+            if record.waypoint_id == self.waypoint_id and self.wait_for_check and (
+                    record.check == "refuted" or (record.doubt is not None
+                                                  and record.check is None)):
+                self.feedback_message = f"pass {record.check or 'not yet checked'}"
+                return Status.FAILURE
             if record.waypoint_id == self.waypoint_id:
                 self.feedback_message = f"passed on its {record.side} at t={record.t:.1f} s"
                 return Status.SUCCESS

@@ -20,6 +20,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     )
     p.add_argument("--seed", type=int, required=True, metavar="SEED", help="the run's seed")
     p.add_argument("--out", required=True, metavar="DIR", help="folder to write to")
+    p.add_argument("--engine", choices=("builtin", "mujoco"), default="builtin",
+                   help="the engine the evaluation ran (default builtin); mujoco's missions "
+                   "get MuJoCo's room (lamps, textures, distractors) and marks turned up to 60°")
     p.set_defaults(func=run)
 
 
@@ -29,9 +32,10 @@ def run(args: argparse.Namespace) -> int:
     if args.seed < 0:
         raise InputError(f"must be ≥ 0, got {args.seed}", field="--seed")
     try:
-        mission_path, world_path = write_random_mission(args.seed, args.out)
+        mission_path, world_path = write_random_mission(args.seed, args.out, args.engine)
     except OSError as exc:
         raise InputError(f"cannot write there: {exc.strerror or exc}", file=args.out) from None
     print(f"mission: {mission_path}  world: {world_path}")
-    print(f"replay: marknav run {mission_path} --seed {args.seed}")
+    flag = f" --engine {args.engine}" if args.engine != "builtin" else ""
+    print(f"replay: marknav run {mission_path} --seed {args.seed}{flag}")
     return 0

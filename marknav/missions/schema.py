@@ -51,6 +51,7 @@ from marknav.missions.schema_drive import (
     Safety,
     Search,
     Sim,
+    VerifyPass,
 )
 from marknav.missions.schema_json import mission_json_schema
 from marknav.missions.schema_load import load_mission, parse_mission
@@ -84,6 +85,7 @@ __all__ = [
     "Safety",
     "Search",
     "Sim",
+    "VerifyPass",
     "known_key",
     "load_mission",
     "mission_json_schema",

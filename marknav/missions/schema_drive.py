@@ -24,6 +24,7 @@ __all__ = [
     "Safety",
     "Search",
     "Sim",
+    "VerifyPass",
 ]
 
 #: The Create's wheel speed limit (OI spec, Drive Direct: −500..500 mm/s).
@@ -99,7 +100,56 @@ class Search(BaseModel):
     )
     timeout_s: Number = Field(
         default=15.0, gt=0, allow_inf_nan=False,
-        description="Give up (the mission fails) after searching this long, seconds.",
+        description="Give up the turn on the spot (the first step) after this long, seconds; "
+        "each later step's closing turn has the same limit.",
+    )
+    return_distance_mm: Number = Field(
+        default=1500.0, ge=0, allow_inf_nan=False,
+        description="Second step, after a full turn found nothing: drive at most this far, mm, "
+        "to where the target was last seen from (its estimate at the range of its last "
+        "sighting; a mark never seen: where the route's last two marks put the next), facing "
+        "it, then turn once more. 1.5 m is about two bypass distances: far enough to get a mark "
+        "lost beside the robot back into the 57° view. 0 leaves the step out.",
+    )
+    advance_distance_mm: Number = Field(
+        default=1000.0, ge=0, allow_inf_nan=False,
+        description="Third step: drive at most this far, mm, along the course (the last "
+        "bypass's course, else the heading the search began with), then turn once more: a "
+        "mark too far or too dim to be detected from here comes nearer. 0 leaves the step out.",
+    )
+    look_from_mm: Number = Field(
+        default=1500.0, gt=0, allow_inf_nan=False,
+        description="How far from a remembered or predicted mark, mm, the return step stops "
+        "to look for it (a sighting's own range is used when there is one): a 100 mm mark "
+        "is 79 px across there at f = 590 px, well above the detector's smallest size.",
+    )
+    drive_speed_mm_s: Number = Field(
+        default=150.0, gt=0, le=500, allow_inf_nan=False,
+        description="Forward or reverse speed of the return and advance steps, mm/s: slow "
+        "enough that a frame every 50 ms sees the view move 7.5 mm.",
+    )
+
+
+class VerifyPass(BaseModel):
+    """Looking back at a mark whose pass the bypass's own sightings did not confirm."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    look_back: bool = Field(
+        default=True,
+        description="After a doubtful pass, turn toward the mark and decide its side from "
+        "where it is seen; false records the pass as doubtful and goes on (the run's outcome "
+        "is then 'unverified').",
+    )
+    timeout_s: Number = Field(
+        default=10.0, gt=0, allow_inf_nan=False,
+        description="Longest look back, seconds: turning to face a mark just behind the robot "
+        "(about 140°) and back at 40°/s takes 7 s.",
+    )
+    min_sightings: Integer = Field(
+        default=3, ge=1,
+        description="Frames that must see the mark whole before its side is decided (one "
+        "frame's false detection does not decide it).",
     )
 
 
@@ -130,6 +180,8 @@ class Navigation(BaseModel):
         description="Pure-pursuit lookahead along the bypass curve, mm.",
     )
     search: Search = Field(default=Search(), description="Searching for a lost target.")
+    verify_pass: VerifyPass = Field(
+        default=VerifyPass(), description="Confirming a doubtful pass by looking back.")
     bypass_margin_mm: Number = Field(
         default=40.0, ge=0, le=500, allow_inf_nan=False,
         description="Extra distance, mm, planned beyond clearance_mm. Once the mark leaves the "

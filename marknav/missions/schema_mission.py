@@ -168,6 +168,14 @@ class Mission(BaseModel):
                       ("robot", "wheel_base_mm")),
                 nav.search.turn_speed_deg_s,
             ))
+        if nav.search.drive_speed_mm_s > robot.max_speed_mm_s:
+            problems.append(problem_detail(
+                "search_speed",
+                f"search.drive_speed_mm_s {nav.search.drive_speed_mm_s:g} is more than "
+                f"robot.max_speed_mm_s {robot.max_speed_mm_s:g}",
+                blame(("navigation", "search", "drive_speed_mm_s"), ("robot", "max_speed_mm_s")),
+                nav.search.drive_speed_mm_s,
+            ))
         min_timeout = 2.0 / self.control.rate_hz
         if self.safety.command_timeout_s < min_timeout:
             problems.append(problem_detail(

@@ -109,12 +109,18 @@ def test_a_bump_mid_bypass_resumes_the_bypass_of_the_same_mark(rig):
 
 def test_a_mark_that_cannot_be_found_fails_the_mission_with_the_reason(rig):
     tree = route_tree(rig, ["green"], ())  # nothing in the world
-    log = rig.run(tree, Status.FAILURE, max_ticks=400)
+    log = rig.run(tree, Status.FAILURE, max_ticks=800)
     assert log.reached
-    assert log.records[-1].t == pytest.approx(9.0, abs=0.06)  # a full turn at 40°/s
+    # a full turn at 40°/s (9 s), nothing to return to, 1 m on at 150 mm/s (6.7 s), a full turn
+    assert log.records[-1].t == pytest.approx(9.0 + 1000.0 / 150.0 + 9.0, abs=0.3)
     why = failure_reason(tree.root)
     assert why is not None and not why.aborted
     assert why.path == ("Mission/Route/Waypoint 1: green (pass on its right)/Pass/Reach/"
-                        "CloseIn/Seen?|Search/Search")
-    assert why.reason.startswith("Search: green #1 not found in a full turn")
+                        "CloseIn/Seen?|Search/Search/Advance")
+    head, driven = why.reason.rsplit(" ", 2)[0], why.reason.rsplit(" ", 2)[1]
+    assert head == (
+        "Advance: green #1 not found; gave up after spin: not found in a full turn (9.0 s); "
+        "return: never seen, and fewer than two marks passed to predict it from; "
+        "advance: not seen in a full turn after driving")
+    assert float(driven) == pytest.approx(1000.0, abs=10.0)  # one tick at 150 mm/s: 7.5 mm
     assert failure_reason(tree.root.children[0]) is None  # Perception did not fail

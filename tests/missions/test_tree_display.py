@@ -31,7 +31,7 @@ def test_dot_has_simple_ids_unique_labels_and_says_where_it_went(
     text = out_file.read_text(encoding="utf-8")
     [graph] = pydot.graph_from_dot_data(text)
     nodes = [n for n in graph.get_nodes() if n.get_name() not in ("node", "edge", "graph")]
-    assert len(nodes) == 7 + 4 * 12  # Mission, its guards (5), Route; 12 nodes a waypoint
+    assert len(nodes) == 7 + 4 * 16  # Mission, its guards (5), Route; 16 nodes a waypoint
     assert all(re.fullmatch(r"n\d+", n.get_name()) for n in nodes)
     labels = [n.get("label") for n in nodes]
     assert len(set(labels)) == len(labels)  # repeated nodes told apart
@@ -50,7 +50,7 @@ def test_graphviz_renders_it_without_a_warning(tmp_path: Path) -> None:
     done = subprocess.run(["dot", "-Tsvg", str(out_file)], capture_output=True, text=True,
                           timeout=60)
     assert done.returncode == 0 and done.stderr == ""
-    assert done.stdout.count("<g id=\"node") == 7 + 4 * 12 + 4  # and the 4 Photo pauses
+    assert done.stdout.count("<g id=\"node") == 7 + 4 * 16 + 4  # and the 4 Photo pauses
 
 
 def test_tree_draws_in_the_live_views_notation(capsys: pytest.CaptureFixture[str]) -> None:

@@ -65,7 +65,7 @@ def run_seed(mission_path: str, seed: int, max_time_s: float | None = None,
         if mission_path == RANDOM:
             from marknav.runs.evaluation.random_mission import random_mission
 
-            drawn = random_mission(seed)
+            drawn = random_mission(seed, "mujoco" if engine == "mujoco" else "builtin")
             mission = drawn.mission
             req = RunRequest(mission=mission, seed=seed, world_model=drawn.world,
                              max_time_s=max_time_s, engine=engine, record_path=record_path)

@@ -37,6 +37,7 @@ import yaml
 
 from marknav.core.yamlio import load_yaml_text
 from marknav.missions.schema import Mission, parse_mission
+from marknav.sim.mujoco.scene import random_scene
 from marknav.sim.randomisation import bounds, counts
 from marknav.sim.world.generate import generate_world
 from marknav.sim.world.schema import CREATE_RADIUS_MM, MarkSpec, World
@@ -172,8 +173,14 @@ def _off_course(rng: np.random.Generator, world: World, route: list[str],
     return out
 
 
-def random_mission(seed: int) -> RandomMission:
-    """The mission and world of ``seed`` (see the module docstring)."""
+def random_mission(seed: int, engine: Literal["builtin", "mujoco"] = "builtin") -> RandomMission:
+    """The mission and world of ``seed`` (see the module docstring). With ``engine="mujoco"``
+    the mission runs on MuJoCo (``sim.engine``) and its world gets the room the slalom's
+    randomised MuJoCo worlds get: lamps (with shadows, ``sim.shadows``' default), tints, dim
+    rooms, textures, occluders, near-colour distractors and marks turned up to ±60°
+    (:func:`marknav.sim.world.generate.generate_world`); the room is drawn around every mark,
+    the off-course ones too, so nothing of it stands on a mark. The route, sides, settings and
+    mark positions are those of the built-in engine's mission of the same seed."""
     if seed < 0:
         raise ValueError(f"seed must be ≥ 0, got {seed}")
     rng = np.random.default_rng([int(seed), 0x4D15])
@@ -194,14 +201,15 @@ def random_mission(seed: int) -> RandomMission:
         "camera": {"width": 640, "height": 480, "focal_px": FOCAL_PX, "range": range_spec},
         "navigation": {"bypass_distance_mm": bypass, "clearance_mm": clearance,
                        "approach_speed_mm_s": approach},
-        "sim": {"world": "world.yaml", "seed": int(seed)},
+        "sim": {"world": "world.yaml", "seed": int(seed),
+                **({"engine": engine} if engine != "builtin" else {})},
     }
     text = yaml.safe_dump(mission_doc, sort_keys=False)
     mission = parse_mission(load_yaml_text(text, f"<random mission {seed}>"))
     base = generate_world(
         route, seed=seed, clearance_mm=clearance, radius_mm=radius, conditions="randomised",
         bypass_distance_mm=bypass, sides=[sides[c] for c in route],
-        half_fov_deg=mission.camera.hfov_deg / 2.0)
+        half_fov_deg=mission.camera.hfov_deg / 2.0, engine=engine)
     # The saturation floors a user would calibrate with these printed marks: the marks read
     # their paint's saturation (conditions.mark_saturation, ± its spread mark to mark) times
     # what full paint reads, so the floor scales with the palest mark (PALETTE's floors are
@@ -214,16 +222,23 @@ def random_mission(seed: int) -> RandomMission:
         text = yaml.safe_dump(mission_doc, sort_keys=False)
         mission = parse_mission(load_yaml_text(text, f"<random mission {seed}>"))
     extra = _off_course(rng, base, route, clearance, radius)
+    marks = base.marks + tuple(extra)
+    scene = base.mujoco
+    if scene is not None:  # the room around every mark, off-course ones included
+        p0 = base.robot.pose()
+        scene = random_scene(seed, [(m.x_mm - p0.x, m.y_mm - p0.y) for m in marks], route,
+                             clearance_mm=clearance)
     world = World.model_validate(
-        {**{k: getattr(base, k) for k in World.model_fields},
-         "marks": base.marks + tuple(extra)})
+        {**{k: getattr(base, k) for k in World.model_fields}, "marks": marks, "mujoco": scene})
     world_doc = world.model_dump(mode="json")
     return RandomMission(seed, mission, world, mission_doc, world_doc, range_kind)
 
 
-def write_random_mission(seed: int, out_dir: str | Path) -> tuple[Path, Path]:
-    """Write the mission and world of ``seed`` as ``OUT/mission.yaml`` and ``OUT/world.yaml``."""
-    rm = random_mission(seed)
+def write_random_mission(seed: int, out_dir: str | Path,
+                         engine: Literal["builtin", "mujoco"] = "builtin") -> tuple[Path, Path]:
+    """Write the mission and world of ``seed`` (for ``engine``) as ``OUT/mission.yaml`` and
+    ``OUT/world.yaml``."""
+    rm = random_mission(seed, engine)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     header = (f"# Random mission of seed {seed} (marknav random-mission; range model "

@@ -19,6 +19,7 @@ import py_trees
 from marknav.behaviours import keys
 from marknav.behaviours.route import failure_reason
 from marknav.behaviours.tree import build_mission_tree
+from marknav.behaviours.verify import CONFIRMED, REFUTED
 from marknav.core import outputs, signals
 from marknav.core.cvthreads import one_opencv_thread
 from marknav.core.errors import InputError
@@ -30,6 +31,8 @@ from marknav.runs.records.report import (
     FAILED,
     PASSED_OUTCOMES,
     SUCCESS,
+    UNSURE_OUTCOMES,
+    UNVERIFIED,
     EventLog,
     RunReport,
     WaypointResult,
@@ -199,16 +202,29 @@ def waypoint_outcomes(mission: Mission, report: RunReport) -> list[str]:
     failed_marked = False
     for i in range(len(mission.route)):
         if i in done:
-            doubt = done[i].doubt
-            out.append(DOUBTFUL if doubt is not None else "passed")
-            if doubt is not None and i < len(report.waypoints):
-                report.waypoints[i].doubt = doubt
+            record = done[i]
+            out.append(_verdict_of(record))
+            failed_marked = failed_marked or out[-1] == "failed"
+            if record.doubt is not None and i < len(report.waypoints):
+                report.waypoints[i].doubt = record.doubt
+                report.waypoints[i].check = record.check
         elif report.outcome != "success" and not failed_marked:
             out.append("failed")
             failed_marked = True
         else:
             out.append("pending")
     return out
+
+
+def _verdict_of(record: keys.PassedWaypoint) -> str:
+    """A passed waypoint's verdict: sure (no doubt, or confirmed looking back), refuted
+    looking back (``failed``), ``unverified`` (looked back, undecided) or ``doubtful`` (not
+    checked)."""
+    if record.doubt is None or record.check == CONFIRMED:
+        return "passed"
+    if record.check == REFUTED:
+        return "failed"
+    return UNVERIFIED if record.check == UNVERIFIED else DOUBTFUL
 
 
 def pass_times(mission: Mission) -> list[float | None]:
@@ -340,6 +356,17 @@ def write_interrupted(req: RunRequest, exc: KeyboardInterrupt, when: str) -> Non
         _finish(req, req.mission, None, None, report, events)
 
 
+def mark_unconfirmed(report: RunReport) -> None:
+    """A run that passed every waypoint, one or more of them ``doubtful`` or ``unverified``
+    by the robot's own evidence, ends ``unverified`` (not ``success``), its reason naming them."""
+    doubts = [f"waypoint {i} ({w.colour}) {w.outcome}: {w.doubt}"
+              for i, w in enumerate(report.waypoints, start=1) if w.outcome in UNSURE_OUTCOMES]
+    if report.outcome == SUCCESS and doubts:
+        report.outcome = UNVERIFIED
+        report.reason += (f", but {len(doubts)} of them not confirmed by the robot's own "
+                          "evidence: " + "; ".join(doubts))
+
+
 def _finish(req: RunRequest, mission: Mission, env: Environment | None,
             result: RunResult | None, report: RunReport, events: EventLog,
             root: py_trees.behaviour.Behaviour | None = None) -> None:
@@ -348,11 +375,7 @@ def _finish(req: RunRequest, mission: Mission, env: Environment | None,
     req.finishing = True
     failure: Exception | None = None
     extra: dict[str, Any] = {}
-    doubts = [f"waypoint {i} ({w.colour}): {w.doubt}"
-              for i, w in enumerate(report.waypoints, start=1) if w.outcome == DOUBTFUL]
-    if report.outcome == SUCCESS and doubts:
-        report.reason += (f", {len(doubts)} of them doubtful by the robot's own evidence: "
-                          + "; ".join(doubts))
+    mark_unconfirmed(report)
     try:
         if env is not None:
             env.close()
@@ -547,10 +570,10 @@ def load(path: str) -> Mission:
 def summary(report: RunReport) -> str:
     """One line: what happened."""
     passed = sum(1 for w in report.waypoints if w.outcome in PASSED_OUTCOMES)
-    doubtful = sum(1 for w in report.waypoints if w.outcome == DOUBTFUL)
+    doubtful = sum(1 for w in report.waypoints if w.outcome in UNSURE_OUTCOMES)
     speed = report.speedup
     speed_s = f", {speed:.1f}x real time" if speed is not None and math.isfinite(speed) else ""
-    doubts = f", {doubtful} of them doubtful" if doubtful else ""
+    doubts = f", {doubtful} of them unconfirmed" if doubtful else ""
     line = (f"{report.mission}: {report.outcome} — {report.reason} ({passed}/"
             f"{len(report.waypoints)} waypoints{doubts}, {report.collisions} collisions, "
             f"{report.sim_time_s:.1f} s{speed_s})")

@@ -3,10 +3,13 @@
 The event log is written line by line and flushed as events happen, and the report is written
 in a ``finally`` block, so an aborted, failed or interrupted run loses nothing.
 
-Report keys: ``outcome`` ("success" | "failed" | "aborted"), ``reason``, ``sim_time_s``,
-``wall_time_s``, ``ticks``, ``waypoints: [{colour, side, outcome, passed_on, min_clearance_mm, mark:
-{index, x_mm, y_mm}, truth, truth_detail, doubt}]`` (``outcome``: the robot's own verdict, "passed"
-| "doubtful" | "failed" | "pending"; ``doubt``: why a pass is doubtful), ``collisions``,
+Report keys: ``outcome`` ("success" | "unverified" | "failed" | "aborted"; "unverified": every
+waypoint passed, one or more of them without the robot's own confirmation), ``reason``,
+``sim_time_s``, ``wall_time_s``, ``ticks``, ``waypoints: [{colour, side, outcome, passed_on,
+min_clearance_mm, mark: {index, x_mm, y_mm}, truth, truth_detail, doubt, check}]``
+(``outcome``: the robot's own verdict, "passed" | "doubtful" | "unverified" | "failed" |
+"pending"; ``doubt``: why the bypass doubted the pass; ``check``: what looking back decided),
+``collisions``,
 ``safety_events: [{t, event, state}]``, ``tick_ms: {p50, p99, max}``, ``overruns`` — plus
 ``mission``, ``seed``, ``robot``, ``camera``, ``speedup`` and, from the simulator, ``truth_path:
 [[t, x_mm, y_mm], ...]``, and ``overrides``: the ``--set KEY=VALUE`` settings the run used on top of
@@ -37,15 +40,21 @@ ABORTED = "aborted"
 #: A waypoint's verdict when the robot passed it by odometry but its own sightings do not
 #: confirm the pass (the waypoint's ``doubt`` says why).
 DOUBTFUL = "doubtful"
+#: A waypoint's verdict when the pass was doubtful and looking back at the mark did not decide
+#: its side; also the run's outcome when every waypoint was passed but one of them doubtful or
+#: unverified (not "success": the robot does not know it passed every mark on its side).
+UNVERIFIED = "unverified"
 #: The waypoint verdicts of a mark the robot went past: sure, or not.
-PASSED_OUTCOMES = ("passed", DOUBTFUL)
+PASSED_OUTCOMES = ("passed", DOUBTFUL, UNVERIFIED)
+#: The waypoint verdicts of a pass the robot is not sure of.
+UNSURE_OUTCOMES = (DOUBTFUL, UNVERIFIED)
 
 
 @dataclass
 class WaypointResult:
     colour: str
     side: str
-    outcome: str = "pending"  # "passed" | "doubtful" | "failed" | "pending"
+    outcome: str = "pending"  # "passed" | "doubtful" | "unverified" | "failed" | "pending"
     passed_on: str | None = None  # from ground truth (simulator only)
     min_clearance_mm: float | None = None  # from ground truth (simulator only)
     # Simulator only: the course's physical mark for this waypoint ({index, x_mm, y_mm}) and the
@@ -54,8 +63,11 @@ class WaypointResult:
     mark: dict[str, Any] | None = None
     truth: str | None = None
     truth_detail: str = ""
-    # Why the robot doubts its own pass (outcome "doubtful"), else None.
+    # Why the robot doubted its own pass after the bypass, else None.
     doubt: str | None = None
+    # What looking back at a doubtful pass decided: "confirmed" (outcome "passed"), "refuted"
+    # ("failed"), "unverified" ("unverified"); None: not checked.
+    check: str | None = None
 
 
 class _Judged(Protocol):

@@ -8,7 +8,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from marknav.runs.records.report import DOUBTFUL, PASSED_OUTCOMES, SUCCESS, RunReport, reached
+from marknav.runs.records.report import (
+    PASSED_OUTCOMES,
+    SUCCESS,
+    UNSURE_OUTCOMES,
+    RunReport,
+    reached,
+)
 
 __all__ = ["ERROR", "RANDOM", "SeedResult", "WaypointTruth", "random_replay_command",
            "replay_command"]
@@ -31,7 +37,7 @@ class WaypointTruth:
 
     colour: str
     side: str
-    outcome: str  # "passed" | "doubtful" | "failed" | "pending"
+    outcome: str  # "passed" | "doubtful" | "unverified" | "failed" | "pending"
     passed_on: str | None
     min_clearance_mm: float | None
     truth: str | None = None
@@ -60,8 +66,8 @@ class WaypointTruth:
 
     @property
     def doubtful(self) -> bool:
-        """The robot reported the pass doubtful."""
-        return self.outcome == DOUBTFUL
+        """The robot reported the pass doubtful or unverified (not sure of it)."""
+        return self.outcome in UNSURE_OUTCOMES
 
     def describe(self) -> str:
         """What the truth says of a waypoint it does not confirm."""
@@ -79,7 +85,7 @@ class SeedResult:
     """
 
     seed: int
-    outcome: str  # "success" | "failed" | "aborted" | "error"
+    outcome: str  # "success" | "unverified" | "failed" | "aborted" | "error"
     reason: str
     sim_time_s: float
     wall_time_s: float
@@ -191,7 +197,7 @@ def replay_command(mission_path: str, seed: int, max_time_s: float | None = None
     """The ``marknav run`` command that replays evaluation run ``seed`` exactly."""
     flag = f" --engine {engine}" if engine is not None else ""
     if mission_path == RANDOM:
-        return random_replay_command(seed, max_time_s) + flag
+        return random_replay_command(seed, max_time_s, engine)
     cmd = f"marknav run {shlex.quote(mission_path)} --world random --seed {seed}{flag}"
     cmd += "".join(f" --set {shlex.quote(o)}" for o in overrides)
     if max_time_s is not None:
@@ -199,12 +205,14 @@ def replay_command(mission_path: str, seed: int, max_time_s: float | None = None
     return cmd
 
 
-def random_replay_command(seed: int, max_time_s: float | None = None) -> str:
-    """The commands that rebuild random mission ``seed`` and run it exactly as the evaluation
-    did."""
+def random_replay_command(seed: int, max_time_s: float | None = None,
+                          engine: str | None = None) -> str:
+    """The commands that rebuild random mission ``seed`` (for ``engine``: MuJoCo's missions
+    have their own rooms) and run it exactly as the evaluation did."""
     out = f"runs/random-{seed}"
-    cmd = f"marknav random-mission --seed {seed} --out {out} && marknav run {out}/mission.yaml " \
-          f"--seed {seed}"
+    flag = f" --engine {engine}" if engine is not None else ""
+    cmd = f"marknav random-mission --seed {seed}{flag} --out {out} && marknav run " \
+          f"{out}/mission.yaml --seed {seed}{flag}"
     if max_time_s is not None:
         cmd += f" --max-time {max_time_s:g}"
     return cmd
