@@ -80,7 +80,10 @@ def test_a_search_that_times_out_is_seen_with_its_message(
     log = tick_until(tree, Status.SUCCESS, max_ticks=2000, clock=manual_clock, dt=0.05)
     assert not log.reached
     assert "FAILURE" in tree_coverage.outcomes("Search")
-    assert any("not found" in m for m in tree_coverage.messages("Search", "FAILURE"))
+    # the search gives up at its last step, whose message tells the whole search
+    assert "FAILURE" in tree_coverage.outcomes("Advance")
+    assert any("not found" in m and "gave up after spin" in m
+               for m in tree_coverage.messages("Advance", "FAILURE"))
     assert tree_coverage.ticked("Bypass") == 0
 
 

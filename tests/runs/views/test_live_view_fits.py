@@ -20,7 +20,8 @@ from marknav.runs.views.display import LiveView, PlainView, render, tree_rows
 #: The running branch of a waypoint closing in on its mark, by node name.
 CLOSING_IN = {"Passed?": FAILURE, "Pass": RUNNING, "SelectTarget": SUCCESS, "Reach": RUNNING,
               "Bypassing?": FAILURE, "CloseIn": RUNNING, "Seen?|Search": SUCCESS,
-              "Seen?": SUCCESS, "Search": INVALID, "Approach": RUNNING, "Bypass": INVALID}
+              "Seen?": SUCCESS, "Search": INVALID, "Spin": INVALID, "Return": INVALID,
+              "Advance": INVALID, "Approach": RUNNING, "Bypass": INVALID, "Verify": INVALID}
 
 
 def _subtree(state: TreeState, i: int) -> list[int]:
