@@ -20,7 +20,6 @@ silent ones (on a loaded machine this wall-clock ratio scatters widely, both way
 from __future__ import annotations
 
 import logging
-import socket
 import struct
 import threading
 import time
@@ -30,6 +29,7 @@ import numpy as np
 import py_trees
 
 from marknav.runs.views.groot2 import Groot2Server
+from marknav.runs.views.groot2 import free_port_pair as _free_port_pair
 
 #: How often the benchmark's client asks for the statuses (Hz), and every how many status
 #: requests it asks for the blackboard.
@@ -40,20 +40,6 @@ BLACKBOARD_EVERY = 10
 PHASE_S = 0.25
 #: Seconds the client waits for a reply before it counts the server gone.
 REPLY_TIMEOUT_S = 0.5
-
-
-def _free_port_pair() -> int:
-    for _ in range(50):
-        with socket.socket() as a:
-            a.bind(("127.0.0.1", 0))
-            port = int(a.getsockname()[1])
-            with socket.socket() as b:
-                try:
-                    b.bind(("127.0.0.1", port + 1))
-                except OSError:
-                    continue
-        return port
-    raise RuntimeError("no two free TCP ports in a row")
 
 
 def _poll(port: int, stop: threading.Event, counts: list[int],

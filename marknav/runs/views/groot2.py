@@ -30,6 +30,7 @@ breakpoints, it has nothing to undo then.
 from __future__ import annotations
 
 import logging
+import socket
 import struct
 import threading
 import time
@@ -230,3 +231,19 @@ class Groot2Server:
         packed = bytes(msgpack.packb(out))
         self._dumped = (ticks, names, packed)
         return packed
+
+
+def free_port_pair(host: str = "127.0.0.1") -> int:
+    """A TCP port P on ``host`` with P + 1 free too (a Groot2 server's two: requests and the
+    breakpoint announcements)."""
+    for _ in range(50):
+        with socket.socket() as a:
+            a.bind((host, 0))
+            port = int(a.getsockname()[1])
+            with socket.socket() as b:
+                try:
+                    b.bind((host, port + 1))
+                except OSError:
+                    continue
+        return port
+    raise RuntimeError("no two free TCP ports in a row")

@@ -19,27 +19,12 @@ import pytest
 
 from marknav.runs.records.btcpp import read_tree_xml
 from marknav.runs.records.tree_state import TreeState
-from marknav.runs.views.groot2 import Groot2Server
+from marknav.runs.views.groot2 import Groot2Server, free_port_pair
 
 zmq = pytest.importorskip("zmq")
 msgpack = pytest.importorskip("msgpack")
 
 STATUS = {"INVALID": 0, "RUNNING": 1, "SUCCESS": 2, "FAILURE": 3}
-
-
-def free_port_pair() -> int:
-    """A TCP port P with P + 1 free too."""
-    for _ in range(50):
-        with socket.socket() as a:
-            a.bind(("127.0.0.1", 0))
-            port = int(a.getsockname()[1])
-            with socket.socket() as b:
-                try:
-                    b.bind(("127.0.0.1", port + 1))
-                except OSError:
-                    continue
-        return port
-    raise RuntimeError("no two free ports in a row")
 
 
 class Groot2Client:

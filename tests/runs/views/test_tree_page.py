@@ -8,7 +8,6 @@ from __future__ import annotations
 import json
 import re
 import shutil
-import socket
 import time
 import urllib.error
 import urllib.request
@@ -19,25 +18,11 @@ import py_trees
 import pytest
 
 from marknav.runs.records.tree_state import TreeState
+from marknav.runs.views.groot2 import free_port_pair
 from marknav.runs.views.tree_page import LiveSource, LogSource, TreePageServer, page_html
 
 TREE = {"names": ["Mission", "Approach", "Bypass"], "kinds": ["sequence", "leaf", "leaf"],
         "parents": [-1, 0, 0], "memory": [True, False, False]}
-
-
-def free_port_pair() -> int:
-    """A TCP port P with P + 1 free too (a Groot2 server's two)."""
-    for _ in range(50):
-        with socket.socket() as a:
-            a.bind(("127.0.0.1", 0))
-            port = int(a.getsockname()[1])
-            with socket.socket() as b:
-                try:
-                    b.bind(("127.0.0.1", port + 1))
-                except OSError:
-                    continue
-        return port
-    raise RuntimeError("no two free ports in a row")
 
 
 def _records() -> list[dict[str, Any]]:
