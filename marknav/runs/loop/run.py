@@ -108,11 +108,19 @@ def _world_for(mission: Mission, req: RunRequest, seed: int) -> Any:
         conditions = type(world.conditions).model_validate(
             {**world.conditions.model_dump(), **changes})
         world = world.model_copy(update={"conditions": conditions})
+        from marknav.sim.world.course import check_engine_conditions
+
+        check_engine_conditions(world, engine_of(mission, req), mission.source_path,
+                                keys=list(changes), prefix="sim.conditions")
     return world
 
 
 def _base_world(mission: Mission, req: RunRequest, seed: int) -> Any:
-    from marknav.sim.world.course import check_against_palette, check_course
+    from marknav.sim.world.course import (
+        check_against_palette,
+        check_course,
+        check_engine_conditions,
+    )
     from marknav.sim.world.generate import generate_world
     from marknav.sim.world.schema import load_world
 
@@ -129,6 +137,7 @@ def _base_world(mission: Mission, req: RunRequest, seed: int) -> Any:
         world = load_world(path)
         check_against_palette(world, mission.palette(), path)
         check_course(world, mission.route, path)
+        check_engine_conditions(world, engine_of(mission, req), path)
     else:
         world = generate_world(
             mission.route, seed=seed, clearance_mm=mission.navigation.clearance_mm,

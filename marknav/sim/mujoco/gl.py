@@ -41,6 +41,9 @@ _LIBRARIES = {
     "osmesa": (("libOSMesa.so.8", "libOSMesa.so.6", "libOSMesa.so"), "OSMesa", OSMESA_PACKAGE),
     "egl": (("libEGL.so.1", "libEGL.so"), "EGL", EGL_PACKAGES),
 }
+#: A function each platform's library must export for MuJoCo's bindings to make a context with
+#: it: a library that is found but does not load, or lacks it, fails MuJoCo's GL setup.
+_REQUIRED_SYMBOLS = {"osmesa": "OSMesaCreateContextExt", "egl": "eglGetDisplay"}
 _INSTALL_EXTRA = "pip install 'marknav[mujoco]'"
 
 
@@ -68,17 +71,25 @@ def _install_hint(name: str) -> str:
     return "set MUJOCO_GL=osmesa (apt-get install -y libosmesa6) or MUJOCO_GL=egl"
 
 
+def _loads_with_symbol(soname: str, symbol: str) -> bool:
+    try:
+        library = ctypes.CDLL(soname)
+        getattr(library, symbol)
+    except (OSError, AttributeError):
+        return False
+    return True
+
+
 def _library_present(name: str) -> bool:
+    """Whether the platform's library loads and exports what MuJoCo calls (not merely whether
+    the linker cache names it: a listed but broken library fails inside ``mujoco``)."""
     if name not in _LIBRARIES:
         return True  # a platform marknav does not know: let MuJoCo try it
     sonames, short, _ = _LIBRARIES[name]
-    for soname in sonames:
-        try:
-            ctypes.CDLL(soname)
-            return True
-        except OSError:
-            continue
-    return ctypes.util.find_library(short) is not None
+    symbol = _REQUIRED_SYMBOLS[name]
+    found = ctypes.util.find_library(short)
+    candidates = (*sonames, found) if found else sonames
+    return any(_loads_with_symbol(soname, symbol) for soname in candidates)
 
 
 def missing_library() -> str | None:
@@ -87,7 +98,8 @@ def missing_library() -> str | None:
     name = backend()
     if _library_present(name):
         return None
-    return f"its renderer (MUJOCO_GL={name}) needs a system library: {_install_hint(name)}"
+    return (f"its renderer (MUJOCO_GL={name}) needs a system library that loads: "
+            f"{_install_hint(name)}")
 
 
 def import_mujoco(*, rendering: bool = True) -> ModuleType:
@@ -96,7 +108,7 @@ def import_mujoco(*, rendering: bool = True) -> ModuleType:
     name = backend()
     if rendering and not _library_present(name):
         raise InputError(f"the MuJoCo engine renders with MUJOCO_GL={name}, but its library is "
-                         f"missing: {_install_hint(name)}", field="--engine")
+                         f"missing or does not load: {_install_hint(name)}", field="--engine")
     try:
         module = importlib.import_module("mujoco")
     except ImportError as exc:
@@ -105,6 +117,10 @@ def import_mujoco(*, rendering: bool = True) -> ModuleType:
     except RuntimeError as exc:  # an invalid MUJOCO_GL
         raise InputError(f"MuJoCo cannot start: {exc}; {_install_hint('')}",
                          field="MUJOCO_GL") from None
+    except (AttributeError, OSError) as exc:  # its GL setup could not load the library
+        raise InputError(f"MuJoCo cannot load its renderer (MUJOCO_GL={name}: "
+                         f"{type(exc).__name__}: {exc}): {_install_hint(name)}",
+                         field="--engine") from None
     return module
 
 

@@ -87,3 +87,33 @@ def check_against_palette(
             where, world._colour_positions.get(i), f"marks[{i}].colour"))
     if errors:
         raise InputErrors(errors)
+
+
+#: The camera conditions only the built-in engine's camera renders: the MuJoCo engine's
+#: camera has no frame clock, exposure, mark colour spread or mount tilt of its own yet.
+BUILTIN_ONLY_CONDITIONS = (
+    "frame_rate_hz", "dropped_frames", "exposure_ms", "exposure_drift", "mark_saturation",
+    "mark_saturation_spread", "mark_hue_spread", "camera_pitch_deg", "camera_roll_deg",
+)
+
+
+def check_engine_conditions(world: World, engine: str, file: str | Path | None = None,
+                            keys: Sequence[str] | None = None, prefix: str = "conditions"
+                            ) -> None:
+    """Raise :class:`~marknav.core.errors.InputError` (one per key) when ``engine`` cannot
+    render a condition the world sets away from its default (of ``keys`` only, when given):
+    a condition silently ignored would make a run look tested under it when it was not."""
+    if engine != "mujoco":
+        return
+    default = type(world.conditions)()
+    where = str(file) if file is not None else world.source
+    errors = [
+        InputError(f"the MuJoCo engine does not model {key} (set to "
+                   f"{getattr(world.conditions, key)!r}); remove it or use --engine builtin",
+                   file=where, field=f"{prefix}.{key}")
+        for key in BUILTIN_ONLY_CONDITIONS
+        if (keys is None or key in keys)
+        and getattr(world.conditions, key) != getattr(default, key)
+    ]
+    if errors:
+        raise InputErrors(errors)

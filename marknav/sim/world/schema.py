@@ -49,6 +49,10 @@ __all__ = [
 DEFAULT_MARK_RADIUS_MM = 100.0
 #: The Create is a 330 mm disc.
 CREATE_RADIUS_MM = 165.0
+#: The most of a wheel's travel a world may lose to slip, a fraction: beyond it the tyres spin
+#: on the spot (wet ice) and no course can be driven; the MuJoCo engine models slip as a tyre
+#: that much smaller, and as slip nears 1 that tyre has no size or mass MuJoCo can simulate.
+WHEEL_SLIP_LIMIT = 0.9
 
 #: Per-channel gains (B, G, R) of the named casts: warm = incandescent-like, cool = shade-like.
 CAST_GAINS_BGR: dict[str, tuple[float, float, float]] = {
@@ -158,7 +162,8 @@ class Conditions(_Strict):
     - ``blur_sigma_px``: σ of a Gaussian blur, pixels (0: none).
     - ``wheel_mismatch``: the right wheel's ground speed is ``(1 + wheel_mismatch)`` times the
       left's for the same command (e.g. unequal tyres); the encoders do not see it.
-    - ``wheel_slip``: fraction of each wheel's travel lost to slip; the encoders do not see it.
+    - ``wheel_slip``: fraction of each wheel's travel lost to slip (at most
+      :data:`WHEEL_SLIP_LIMIT`); the encoders do not see it.
     - ``latency_frames``: the camera delivers the frame taken this many reads earlier.
     - ``camera_latency_s``: the time from a frame's capture to its arrival at the computer
       (exposure, encoding, a Wi-Fi link: 0.13–0.3 s for MJPEG over Wi-Fi), in continuous time.
@@ -205,7 +210,7 @@ class Conditions(_Strict):
     noise_sigma: Annotated[float, Field(ge=0.0, le=64.0, allow_inf_nan=False)] = 2.0
     blur_sigma_px: Annotated[float, Field(ge=0.0, le=10.0, allow_inf_nan=False)] = 0.0
     wheel_mismatch: Annotated[float, Field(ge=-0.5, le=0.5, allow_inf_nan=False)] = 0.0
-    wheel_slip: Annotated[float, Field(ge=0.0, lt=1.0, allow_inf_nan=False)] = 0.0
+    wheel_slip: Annotated[float, Field(ge=0.0, le=WHEEL_SLIP_LIMIT, allow_inf_nan=False)] = 0.0
     latency_frames: Annotated[int, Field(ge=0, le=30)] = 0
     camera_latency_s: Annotated[float, Field(ge=0.0, le=2.0, allow_inf_nan=False)] = 0.0
     processing_s: Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False)] = 0.0
