@@ -31,9 +31,10 @@ colour has its centre within 0.2 r and its radius within 15 %; false marks are d
 match no mark (nor an ignored object); the range error is |h_true / h_found − 1|, h the vertical
 semi-axis (range ∝ 1/h, :func:`marknav.vision.estimate.estimate_disc`).
 
-**Ablation**: the detector with one stage switched off at a time (its config flag), and the
-least OpenCV detector (:func:`marknav.vision.detect.least.least_opencv_detector`) as the floor; per
-variant recall, false marks per frame, range error p95 and cost (ms, p50) on the held-out half.
+**Ablation**: the detector with one stage or veto switched off at a time (:data:`ABLATIONS`:
+a stage replaced by a plain one, or the config that switches a part off), and the least OpenCV
+detector (:func:`marknav.vision.detect.least.least_opencv_detector`) as the floor; per variant
+recall, false marks per frame, range error p95 and cost (ms, p50) on the held-out half.
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ import hashlib
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
@@ -50,26 +51,62 @@ import cv2
 import numpy as np
 
 from marknav.sim.synthetic.scene import Image, SceneSpec, render_scene
-from marknav.vision.detect import Detector, DetectorConfig, Mark
+from marknav.vision.detect import DetectorConfig, Mark
+from marknav.vision.detect.pipeline import STAGES, Stage, run_stages
+from marknav.vision.detect.scene import SEARCH_SCALE, Scene
 from marknav.vision.estimate import upright_extents
 from marknav.vision.palette import DEFAULT_PALETTE, Palette
 
-__all__ = ["ABLATIONS", "Frame", "Truth", "half", "holdout_report", "load_corpora", "score"]
+__all__ = ["ABLATIONS", "Frame", "Truth", "ablated", "half", "holdout_report", "load_corpora",
+           "score"]
 
 Half = Literal["tuning", "held_out"]
 
-#: The stages that can be switched off, and the config that switches each off.
-ABLATIONS: dict[str, dict[str, Any]] = {
-    "white balance (grey world)": {"white_balance": False},
-    "chroma-contrast filter": {"min_chroma_contrast": 0.0},
-    "glow rejection": {"reject_glows": False},
-    "coarse gate": {"coarse_gate": False},
-    "hue gate": {"hue_gate": False},
-    "per-colour re-reading": {"split_colours": False},
-    "saturation split": {"split_saturation_gap": 0.0},
-    "bridging thin occluders": {"bridge_px": 0.0},
-    "opening": {"open_size": 1},
+def _plain_photometry(scene: Scene, config: DetectorConfig) -> Scene:
+    """Photometry switched off: the search image at half size, no gain, no light correction."""
+    from dataclasses import replace as replaced
+
+    from marknav.vision.detect.photometry import table_of
+
+    h, w = scene.image.shape[:2]
+    small = cv2.resize(scene.image, (max(1, w // SEARCH_SCALE), max(1, h // SEARCH_SCALE)),
+                       interpolation=cv2.INTER_AREA)
+    gains = np.ones(3)
+    return replaced(scene, gains=gains, lut=table_of(gains), small=small,
+                    hsv=cv2.cvtColor(small, cv2.COLOR_BGR2HSV))
+
+
+def _no_suppression(scene: Scene, config: DetectorConfig) -> Scene:
+    """Suppression switched off: every measured mark, largest first."""
+    from dataclasses import replace as replaced
+
+    return replaced(scene, marks=tuple(sorted(scene.marks, key=lambda m: -m.radius)))
+
+
+#: What can be switched off: a stage replaced (name, plain stage) or config changes per stage.
+ABLATIONS: dict[str, tuple[str, Stage] | dict[str, dict[str, Any]]] = {
+    "photometry (gain and light colour)": ("photometry", _plain_photometry),
+    "exposure gain": {"photometry": {"max_gain": 1.0}},
+    "pale-paint floors (sat_share 1)": {"classify": {"sat_share": 1.0}},
+    "cut along colour edges": {"segment": {"edge_step": 0.0}},
+    "joining across thin occluders": {"segment": {"bridge_px": 0}},
+    "outline test": {"shape": {"max_outline_share": 1e9}},
+    "contrast veto": {"shape": {"min_contrast": 0.0}},
+    "texture veto": {"shape": {"max_texture": 1e9}},
+    "suppression": ("suppress", _no_suppression),
 }
+
+
+def ablated(palette: Palette, change: tuple[str, Stage] | dict[str, dict[str, Any]] | None = None,
+            ) -> Callable[[Image], list[Mark]]:
+    """The detector of ``palette`` with one :data:`ABLATIONS` entry applied (``None``: none)."""
+    config = DetectorConfig()
+    stages = STAGES
+    if isinstance(change, tuple):
+        stages = tuple(change if name == change[0] else (name, st) for name, st in STAGES)
+    elif change:
+        config = config.with_(**change)
+    return lambda image: list(run_stages(image, palette, config, stages=stages).marks)
 
 
 def half(corpus: str, name: str) -> Half:
@@ -354,8 +391,9 @@ def holdout_report(root: str | Path, *, ablate: bool = True, **sizes: int) -> di
         halves = {h: [f for f in frames if half(f.corpus, f.name) == h]
                   for h in ("tuning", "held_out")}
 
-        def detector(**change: Any) -> Callable[[Palette], Detect]:
-            return lambda palette: Detector(palette, replace(DetectorConfig(), **change)).detect
+        def detector(change: tuple[str, Stage] | dict[str, dict[str, Any]] | None = None,
+                     ) -> Callable[[Palette], Detect]:
+            return lambda palette: ablated(palette, change)
 
         out: dict[str, Any] = {"split": "sha256(corpus/name)[0] even: tuning; odd: held out",
                                "detector": {h: score(fs, detector()) for h, fs in halves.items()}}
@@ -363,7 +401,7 @@ def holdout_report(root: str | Path, *, ablate: bool = True, **sizes: int) -> di
             held = halves["held_out"]
             table: dict[str, Any] = {"all stages": out["detector"]["held_out"]}
             for stage, change in ABLATIONS.items():
-                table[f"without {stage}"] = score(held, detector(**change))
+                table[f"without {stage}"] = score(held, detector(change))
             table["least OpenCV detector"] = score(held, least_opencv_detector)
             out["ablation_held_out"] = table
     finally:

@@ -36,6 +36,12 @@ class ClassifyConfig:
     #: reaches 0.5-0.7 of a saturated paint's saturation.
     sat_share: float = 0.7
 
+    def __post_init__(self) -> None:
+        if not 0 <= self.hue_margin <= HUE_MAX // 4:
+            raise ValueError(f"hue_margin must be in [0, {HUE_MAX // 4}], got {self.hue_margin}")
+        if not 0.0 <= self.sat_share <= 1.0:
+            raise ValueError(f"sat_share must be in [0, 1], got {self.sat_share}")
+
 
 def _margin(colour: ColourRange, others: Sequence[ColourRange], margin: int, step: int) -> int:
     """How far (hue units, up to ``margin``) ``colour``'s range may widen in direction ``step``

@@ -60,6 +60,16 @@ class PhotometryConfig:
     #: need plain grey world.
     tint_limit: float | None = None
 
+    def __post_init__(self) -> None:
+        if not 0 < self.target_value <= 255:
+            raise ValueError(f"target_value must be in (0, 255], got {self.target_value}")
+        if not 0 < self.percentile <= 100:
+            raise ValueError(f"percentile must be in (0, 100], got {self.percentile}")
+        if not self.max_gain >= 1.0:
+            raise ValueError(f"max_gain must be >= 1, got {self.max_gain}")
+        if self.tint_limit is not None and not 0.0 <= self.tint_limit <= 1.0:
+            raise ValueError(f"tint_limit must be in [0, 1] or None, got {self.tint_limit}")
+
 
 def _percentile(channel: Mat, percent: float) -> float:
     """The ``percent``-th percentile of an 8-bit channel, from its histogram."""

@@ -26,13 +26,13 @@ import numpy.typing as npt
 from marknav.vision.detect.classify import ClassifyConfig, classify
 from marknav.vision.detect.model import MIN_RADIUS_FLOOR_PX, Mark
 from marknav.vision.detect.photometry import PhotometryConfig, photometry
-from marknav.vision.detect.scene import Blob, Scene
+from marknav.vision.detect.scene import SEARCH_SCALE, Blob, Scene
 from marknav.vision.detect.segment import SegmentConfig, segment
 from marknav.vision.detect.shape import ShapeConfig, measure, screen
 from marknav.vision.detect.suppression import SuppressConfig, suppress
 from marknav.vision.palette import DEFAULT_PALETTE, Palette
 
-__all__ = ["STAGES", "Blob", "Detector", "DetectorConfig", "Scene", "detect_marks",
+__all__ = ["STAGES", "Blob", "Detector", "DetectorConfig", "Scene", "Stage", "detect_marks",
            "run_stages"]
 
 U8Array = npt.NDArray[np.uint8]
@@ -76,10 +76,12 @@ STAGES: tuple[tuple[str, Stage], ...] = (
 
 
 def run_stages(image: U8Array, palette: Palette, config: DetectorConfig,
-               until: str | None = None) -> Scene:
-    """The scene after every stage up to ``until`` (inclusive; ``None``: all of them)."""
+               until: str | None = None,
+               stages: Sequence[tuple[str, Stage]] = STAGES) -> Scene:
+    """The scene after every stage up to ``until`` (inclusive; ``None``: all of them);
+    ``stages``: the pipeline (the ablation replaces one)."""
     scene = Scene(image=image, palette=tuple(palette))
-    for name, stage in STAGES:
+    for name, stage in stages:
         scene = stage(scene, config)
         if name == until:
             break
@@ -91,11 +93,17 @@ class Detector:
 
     def __init__(self, palette: Palette = DEFAULT_PALETTE,
                  config: DetectorConfig | None = None) -> None:
+        if not palette:
+            raise ValueError("palette is empty")
         self.palette: Palette = tuple(palette)
         self.config = config or DetectorConfig()
 
     def detect(self, image: U8Array) -> list[Mark]:
         """The marks in one BGR frame, largest (nearest) first."""
+        if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8 or \
+                min(image.shape[:2]) < SEARCH_SCALE:
+            raise ValueError(f"expected a BGR uint8 image, got shape {image.shape} "
+                             f"dtype {image.dtype}")
         return list(run_stages(image, self.palette, self.config).marks)
 
 
@@ -104,6 +112,3 @@ def detect_marks(image: U8Array, palette: Palette = DEFAULT_PALETTE) -> list[Mar
     return Detector(palette).detect(image)
 
 
-def blobs_of(scene: Scene) -> Sequence[Blob]:
-    """The scene's blobs (after :mod:`.segment`)."""
-    return scene.blobs

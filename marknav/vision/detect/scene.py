@@ -38,6 +38,9 @@ class Blob:
     cut_px: int = 0
     #: Whether the blob is two pieces joined across a thin occluder (:mod:`.segment`).
     bridged: bool = False
+    #: The search image's (width, height) when the blob touches its edge (a mark cut by the
+    #: frame's edge), else ``None``.
+    frame: tuple[int, int] | None = None
 
 
 @dataclass(frozen=True, eq=False)

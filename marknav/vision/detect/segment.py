@@ -35,9 +35,6 @@ __all__ = ["SegmentConfig", "cut_along_edges", "segment"]
 CUT_PX = 2
 #: Fewest contour points an ellipse is fitted to.
 _MIN_POINTS = 5
-#: Widest thin occluder (search-image px; 8 full-resolution px) two pieces of a mark are
-#: joined across: a pole or a wire in front of a mark a metre or two away.
-BRIDGE_PX = 4
 #: Most pieces of one colour that are no mark alone looked at for joining in pairs: more are
 #: a textured surface's crumbs, and pairs of them cost their square.
 _MAX_LOOSE = 40
@@ -59,6 +56,16 @@ class SegmentConfig:
     #: own texture and shading by under 20 (Canny's high threshold; the low one is half).
     #: 0: no cut.
     edge_step: float = 60.0
+    #: Widest thin occluder (search-image px; twice that at full resolution) two pieces of a
+    #: mark are joined across: a pole or a wire in front of a mark a metre or two away is
+    #: 4-8 px wide at 640 px. 0: never joined.
+    bridge_px: int = 4
+
+    def __post_init__(self) -> None:
+        if not self.edge_step >= 0.0:
+            raise ValueError(f"edge_step must be >= 0, got {self.edge_step}")
+        if self.bridge_px < 0:
+            raise ValueError(f"bridge_px must be >= 0, got {self.bridge_px}")
 
 
 #: Side (search-image px) of the opening: 3 removes the single pixels JPEG and sensor noise
@@ -92,9 +99,11 @@ def _pieces(contour: Mat, mask: Mat, bgr: Mat | None, config: SegmentConfig,
     """The blob of ``contour`` (with its ellipse when ``whole`` gives one), or, when it is not a
     whole mark's shape, the pieces the frame's edges cut it into (within its bounding box)."""
     area = cv2.contourArea(contour)
-    fit = whole(Blob(colour, contour, area))
+    frame = _frame_if_cut(contour, mask)
+    fit = whole(Blob(colour, contour, area)) if frame is None else None
     if fit is not None or bgr is None or area < 2 * MIN_AREA_PX:
-        return [Blob(colour, contour, area, fit)]
+        return [Blob(colour, contour, area, fit) if fit is not None or frame is None
+                else _partial(colour, contour, area, frame, whole)]
     x, y, w, h = cv2.boundingRect(contour)
     own = np.zeros((h, w), np.uint8)
     cv2.drawContours(own, [contour - (x, y)], -1, 255, -1)
@@ -107,25 +116,45 @@ def _pieces(contour: Mat, mask: Mat, bgr: Mat | None, config: SegmentConfig,
     for part in cv2.findContours(cut, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)[0]:
         piece_area = cv2.contourArea(part)
         if piece_area >= MIN_AREA_PX and len(part) >= _MIN_POINTS:
-            piece = Blob(colour, np.add(part, (x, y)), piece_area, cut_px=CUT_PX)
-            fit = whole(piece)
+            shifted = np.add(part, (x, y))
+            frame = _frame_if_cut(shifted, mask)
+            fit = whole(Blob(colour, shifted, piece_area, cut_px=CUT_PX, frame=frame))
             if fit is not None:
-                out.append(Blob(colour, piece.contour, piece_area, fit, CUT_PX))
-    return out or [Blob(colour, contour, area)]
+                out.append(Blob(colour, shifted, piece_area, fit, CUT_PX, frame=frame))
+    if out or frame is None:
+        return out or [Blob(colour, contour, area)]
+    return [_partial(colour, contour, area, frame, whole)]
 
 
-def _bridged(blobs: list[Blob], whole: Screen, colour: int) -> list[Blob]:
+def _partial(colour: int, contour: Mat, area: float, frame: tuple[int, int],
+             whole: Screen) -> Blob:
+    """A blob cut by the frame's edge, read as part of a mark (tried after its pieces: a
+    surface of the mark's hue reaching the edge is cut from the mark first)."""
+    return Blob(colour, contour, area, whole(Blob(colour, contour, area, frame=frame)),
+                frame=frame)
+
+
+def _frame_if_cut(contour: Mat, mask: Mat) -> tuple[int, int] | None:
+    """The search image's (width, height) if ``contour`` touches its edge, else ``None``."""
+    x, y, w, h = cv2.boundingRect(contour)
+    height, width = mask.shape[:2]
+    if x == 0 or y == 0 or x + w == width or y + h == height:
+        return width, height
+    return None
+
+
+def _bridged(blobs: list[Blob], whole: Screen, colour: int, bridge_px: int) -> list[Blob]:
     """Blobs of one colour that are no mark alone but are one together: two pieces within
-    :data:`BRIDGE_PX` of each other whose convex hull they fill but for a thin strip (a pole,
+    ``bridge_px`` of each other whose convex hull they fill but for a thin strip (a pole,
     a wire, a seam in front of a mark), and which is a mark's shape."""
     loose = [b for b in blobs if b.ellipse is None and b.area >= 2 * MIN_AREA_PX]
-    if not 2 <= len(loose) <= _MAX_LOOSE:
+    if bridge_px <= 0 or not 2 <= len(loose) <= _MAX_LOOSE:
         return []
     box = np.array([cv2.boundingRect(b.contour) for b in loose], np.int64)
     x0, y0, x1, y1 = box[:, 0], box[:, 1], box[:, 0] + box[:, 2], box[:, 1] + box[:, 3]
     gap_x = np.maximum(x0[:, None], x0[None, :]) - np.minimum(x1[:, None], x1[None, :])
     gap_y = np.maximum(y0[:, None], y0[None, :]) - np.minimum(y1[:, None], y1[None, :])
-    near = np.triu((gap_x <= BRIDGE_PX) & (gap_y <= BRIDGE_PX), 1)
+    near = np.triu((gap_x <= bridge_px) & (gap_y <= bridge_px), 1)
     out = []
     for i, j in zip(*np.nonzero(near), strict=True):
         a, b = loose[int(i)], loose[int(j)]
@@ -154,8 +183,9 @@ def segment(scene: Scene, config: SegmentConfig,
         contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
         own: list[Blob] = []
         for contour in contours:
-            if len(contour) >= _MIN_POINTS and cv2.contourArea(contour) >= MIN_AREA_PX:
-                own.extend(_pieces(contour, mask, bgr, config, whole, k))
+            if len(contour) < _MIN_POINTS or cv2.contourArea(contour) < MIN_AREA_PX:
+                continue
+            own.extend(_pieces(contour, mask, bgr, config, whole, k))
         blobs.extend(own)
-        blobs.extend(_bridged(own, whole, k))
+        blobs.extend(_bridged(own, whole, k, config.bridge_px))
     return replace(scene, blobs=tuple(blobs))

@@ -50,6 +50,21 @@ _DOMAIN_KERNEL = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * _DOMAIN_PX + 
 _CORE_KERNEL = np.ones((2 * _CORE_PX + 1,) * 2, np.uint8)
 #: Half a search pixel (px): how far an outline through pixel centres lies from the true one.
 _QUANTUM_PX = 0.5
+#: Share of a mark's outline that must lie inside the frame (and of its blob's outline off the
+#: frame's edge) for a mark cut by the frame's edge: less is a sliver, which the rounded end
+#: of a bar or a corner of a board matches as well.
+_MIN_SEEN = 0.3
+#: A mark cut by the frame's edge is at least this many times the smallest radius: a smaller
+#: arc cannot be told from the rounded end of a bar or a leaf.
+_PARTIAL_RADIUS = 1.6
+#: Largest share of its smallest bounding rectangle a blob may fill: an ellipse fills π/4 ≈
+#: 0.785 of it, a disc of a few pixels' radius digitised up to 0.88; a rectangle all of it.
+_MAX_EXTENT = 0.9
+#: Search-image semi-major axis (px) under which a blob's shape is checked again at full
+#: resolution (a bar of 12 × 7 search pixels has its corners rounded off there).
+_SMALL_PX = 8.0
+#: Points along an ellipse sampled for the share of it inside the frame.
+_OUTLINE_SAMPLES = 64
 #: A blob's longer side spans at least this share of a smallest mark's diameter (the major
 #: axis of an ellipse turned in the image spans its bounding box's diagonal at most √2 of
 #: the longer side, less a pixel of rounding).
@@ -91,6 +106,18 @@ class ShapeConfig:
     #: each; the rest are left unmeasured. The project's frames pass at most 120.
     max_blobs: int = 400
 
+    def __post_init__(self) -> None:
+        if not self.min_radius_px > 0:
+            raise ValueError(f"min_radius_px must be > 0, got {self.min_radius_px}")
+        for name in ("min_fill", "min_axis_ratio"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ValueError(f"{name} must be in [0, 1], got {getattr(self, name)}")
+        for name in ("max_outline_share", "min_contrast", "max_texture"):
+            if not getattr(self, name) >= 0.0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if self.max_blobs < 1:
+            raise ValueError(f"max_blobs must be >= 1, got {self.max_blobs}")
+
 
 def screen(blob: Blob, config: ShapeConfig) -> Ellipse | None:
     """The blob's fitted ellipse ``((x, y), (a, b), angle_deg)`` (search image, semi-axes) if
@@ -101,22 +128,70 @@ def screen(blob: Blob, config: ShapeConfig) -> Ellipse | None:
     if len(blob.contour) < _MIN_PIXELS + 1 or \
             max(cv2.boundingRect(blob.contour)[2:]) < 2.0 * r_min * _MIN_EXTENT:
         return None
-    (x, y), (w, h), angle = cv2.fitEllipse(blob.contour)
+    outline = blob.contour.reshape(-1, 2)
+    if blob.frame is not None:  # cut by the frame: its own outline is what lies inside it
+        outline = _inside(outline, blob.frame)
+        if len(outline) < max(_MIN_PIXELS + 1, _MIN_SEEN * len(blob.contour)):
+            return None
+    (x, y), (w, h), angle = cv2.fitEllipse(outline.astype(np.float32))
     a, b = 0.5 * max(w, h), 0.5 * min(w, h)
     # The outline runs through the rim's pixel centres, half a pixel inside the paint's edge.
     if b <= 0 or b < config.min_axis_ratio * a or \
             SEARCH_SCALE * (a + _QUANTUM_PX) < config.min_radius_px:
         return None
-    if blob.area < config.min_fill * math.pi * a * b:
+    if blob.frame is None:
+        if blob.area < config.min_fill * math.pi * a * b:
+            return None
+        (_, _), (rw, rh), _ = cv2.minAreaRect(blob.contour)
+        if blob.area > _MAX_EXTENT * (rw + 1.0) * (rh + 1.0):
+            return None  # a rectangle: an ellipse fills π/4 of its bounding box
+    elif SEARCH_SCALE * a < _PARTIAL_RADIUS * config.min_radius_px or \
+            not _fills_visible_part(blob, ((x, y), (w, h), angle), config):
         return None
     t = math.radians(angle)
-    d = blob.contour.reshape(-1, 2) - (x, y)
+    d = outline - (x, y)
     u = (d[:, 0] * math.cos(t) + d[:, 1] * math.sin(t)) / (0.5 * w)
     v = (d[:, 1] * math.cos(t) - d[:, 0] * math.sin(t)) / (0.5 * h)
     off = float(np.mean(np.abs(np.sqrt(u * u + v * v) - 1.0))) * math.sqrt(a * b)
     if off > _QUANTUM_PX + config.max_outline_share * a:
         return None
     return (x, y), (a, b), angle
+
+
+def _inside(points: Mat, frame: tuple[int, int]) -> Mat:
+    """The points not on the edge of a ``frame`` (width, height) image."""
+    w, h = frame
+    keep = (points[:, 0] > 0) & (points[:, 1] > 0) & (points[:, 0] < w - 1) & \
+        (points[:, 1] < h - 1)
+    out: Mat = points[keep]
+    return out
+
+
+def _seen_share(rect: Ellipse, frame: tuple[int, int]) -> float:
+    """The share of the ellipse ``rect`` (OpenCV's rotated rectangle) whose outline lies in a
+    ``frame`` (width, height) image."""
+    (x, y), (w, h), angle = rect
+    t = np.linspace(0.0, 2.0 * math.pi, _OUTLINE_SAMPLES, endpoint=False)
+    c, s = math.cos(math.radians(angle)), math.sin(math.radians(angle))
+    u, v = 0.5 * w * np.cos(t), 0.5 * h * np.sin(t)
+    px, py = x + u * c - v * s, y + u * s + v * c
+    inside = (px >= 0) & (py >= 0) & (px <= frame[0] - 1) & (py <= frame[1] - 1)
+    return float(inside.mean())
+
+
+def _fills_visible_part(blob: Blob, rect: Ellipse, config: ShapeConfig) -> bool:
+    """Whether a blob cut by the frame's edge fills the part of its ellipse inside the frame,
+    and enough of the ellipse's outline is inside it to be a mark's (:data:`_MIN_SEEN`)."""
+    assert blob.frame is not None
+    if _seen_share(rect, blob.frame) < _MIN_SEEN:
+        return False
+    w, h = blob.frame
+    ellipse = np.zeros((h, w), np.uint8)
+    cv2.ellipse(ellipse, rect, 1, -1)
+    own = np.zeros((h, w), np.uint8)
+    cv2.drawContours(own, [blob.contour], -1, 1, -1)
+    visible = cv2.countNonZero(ellipse)
+    return visible > 0 and cv2.countNonZero(own & ellipse) >= config.min_fill * visible
 
 
 def coverage_ellipse(alpha: Mat) -> tuple[float, float, float, float, float] | None:
@@ -187,6 +262,43 @@ def _alpha(roi: Mat, inside: Mat, gains: Mat, config: ShapeConfig,
     return out
 
 
+def _boxy(alpha: Mat) -> bool:
+    """Whether the measured paint (full resolution) fills more of its smallest bounding
+    rectangle than an ellipse can (:data:`_MAX_EXTENT`): a bar, a square, a board's patch."""
+    paint = (alpha > 0).astype(np.uint8)
+    points = cv2.findNonZero(paint)
+    if points is None:
+        return True
+    (_, _), (rw, rh), _ = cv2.minAreaRect(points)
+    return cv2.countNonZero(paint) > _MAX_EXTENT * (rw + 1.0) * (rh + 1.0)
+
+
+def _edge_mark(scene: Scene, blob: Blob, alpha: Mat, origin: tuple[int, int],
+               config: ShapeConfig) -> Mark | None:
+    """A mark cut by the frame's edge: the ellipse fitted to its paint's outline inside the
+    frame (full resolution; the outline runs through the rim's pixel centres, half a pixel
+    inside the paint's edge)."""
+    paint = (alpha > 0).astype(np.uint8)
+    contours = cv2.findContours(paint, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)[0]
+    if not contours:
+        return None
+    h, w = scene.image.shape[:2]
+    points = max(contours, key=cv2.contourArea).reshape(-1, 2) + origin
+    outline = _inside(points, (w, h))
+    if len(outline) < _MIN_PIXELS + 1:
+        return None
+    (x, y), (dw, dh), angle = cv2.fitEllipse(outline.astype(np.float32))
+    rect: Ellipse = ((x, y), (dw, dh), angle)
+    a, b = 0.5 * max(dw, dh) + _QUANTUM_PX, 0.5 * min(dw, dh) + _QUANTUM_PX
+    if b < config.min_axis_ratio * a or a < _PARTIAL_RADIUS * config.min_radius_px:
+        return None
+    major = angle if dw >= dh else angle + 90.0
+    seen = _seen_share(rect, (w, h))
+    return Mark(colour=scene.palette[blob.colour].name, x=x, y=y, radius=a, axes=(a, b),
+                angle_deg=major % 180.0, shape="circle" if b >= CIRCLE_RATIO * a else "ellipse",
+                score=round(seen * min(1.0, b / a + 0.5), 4))
+
+
 def _measure_blob(scene: Scene, blob: Blob, config: ShapeConfig) -> Mark | None:
     fit = blob.ellipse
     if fit is None:
@@ -199,12 +311,16 @@ def _measure_blob(scene: Scene, blob: Blob, config: ShapeConfig) -> Mark | None:
     alpha = _alpha(roi, inside, scene.gains, config, SEARCH_SCALE * blob.cut_px)
     if alpha is None:
         return None
+    if blob.frame is not None:
+        return _edge_mark(scene, blob, alpha, (x0, y0), config)
     if blob.bridged:  # the paint's hull: the occluder's strip is the mark's too
         paint = cv2.findNonZero((alpha > 0).astype(np.uint8))
         if paint is None:
             return None
         alpha = np.zeros_like(alpha)
         cv2.fillConvexPoly(alpha, cv2.convexHull(paint), 1.0)
+    elif fit[1][0] < _SMALL_PX and _boxy(alpha):
+        return None
     ellipse = coverage_ellipse(alpha)
     if ellipse is None:
         return None
