@@ -241,14 +241,15 @@ def circular_mean(hues: FloatArray, weights: FloatArray | None = None) -> tuple[
 
 
 def _balanced_hsv(image: U8Array) -> tuple[U8Array, float]:
-    """The frame in HSV through the detector's photometry (its exposure gain and light-colour
-    correction, :mod:`marknav.vision.detect.photometry`), and its grey level there."""
+    """The frame in HSV through the detector's light-colour correction (grey world within
+    bounds, :mod:`marknav.vision.detect.photometry`; no exposure gain: the floors here are
+    relative to the frame already), and its grey level."""
     from marknav.vision.detect.photometry import PhotometryConfig, correction_gains, table_of
 
     h, w = image.shape[:2]
     small = cv2.resize(image, (max(1, w // 2), max(1, h // 2)), interpolation=cv2.INTER_AREA)
     corrected = cv2.LUT(np.ascontiguousarray(image),
-                        table_of(correction_gains(small, PhotometryConfig())))
+                        table_of(correction_gains(small, PhotometryConfig(max_gain=1.0))))
     grey = float(np.mean(cv2.cvtColor(corrected, cv2.COLOR_BGR2GRAY)))
     return np.asarray(cv2.cvtColor(corrected, cv2.COLOR_BGR2HSV), np.uint8), grey
 

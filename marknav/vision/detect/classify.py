@@ -2,8 +2,9 @@
 
 **Design.** After :mod:`.photometry` the frame is exposed for its marks and lit white, so each
 colour is the palette's own box in HSV: its hue range (widened by ``hue_margin``), its value
-floor (which now holds relative to the frame's exposure), and its saturation floor. The margin
-never reaches into another palette colour's range: a pixel has one colour at most. The
+floor (which now holds relative to the frame's exposure), and its saturation floor. Each hue
+has one colour at most: the one whose range holds it, else the nearest within the margin
+(a table of 180 hues, :func:`hue_table`). The
 saturation floor is the palette's scaled by ``sat_share``: a mark printed on paper or seen
 through haze keeps its hue but loses saturation, and the colour of the surroundings no longer
 adds to it once the light is white; what the lower floor lets in, the shape (:mod:`.shape`)
@@ -22,7 +23,7 @@ import numpy as np
 from marknav.vision.detect.scene import Mat, Scene
 from marknav.vision.palette import HUE_MAX, ColourRange
 
-__all__ = ["ClassifyConfig", "classify", "colour_bounds"]
+__all__ = ["ClassifyConfig", "classify", "floors", "hue_table"]
 
 
 @dataclass(frozen=True)
@@ -43,41 +44,32 @@ class ClassifyConfig:
             raise ValueError(f"sat_share must be in [0, 1], got {self.sat_share}")
 
 
-def _margin(colour: ColourRange, others: Sequence[ColourRange], margin: int, step: int) -> int:
-    """How far (hue units, up to ``margin``) ``colour``'s range may widen in direction ``step``
-    (-1: down from ``hue_lo``, +1: up from ``hue_hi``) before it reaches another colour's."""
-    edge = colour.hue_lo if step < 0 else colour.hue_hi
-    for d in range(1, margin + 1):
-        if any(o.contains((edge + step * d) % HUE_MAX) for o in others):
-            return d - 1
-    return margin
+def hue_table(palette: Sequence[ColourRange], margin: int) -> Mat:
+    """The 256-entry table from a pixel's hue (0..179) to its palette colour's index + 1 (0:
+    none): the colour whose range holds the hue, else the nearest one within ``margin``
+    (hue units; the first of equally near ones)."""
+    table = np.zeros(256, np.uint8)
+    for hue in range(HUE_MAX):
+        near = [(c.distance(hue), k) for k, c in enumerate(palette) if c.distance(hue) <= margin]
+        if near:
+            table[hue] = min(near)[1] + 1
+    return table
 
 
-def colour_bounds(colour: ColourRange, config: ClassifyConfig,
-                  others: Sequence[ColourRange] = ()) -> list[tuple[Mat, Mat]]:
-    """The ``inRange`` bounds (low, high; H, S, V) of ``colour``: one pair, two if it wraps. Its
-    hue range widens by ``hue_margin`` each way, but not into one of ``others``' ranges."""
-    lo = (colour.hue_lo - _margin(colour, others, config.hue_margin, -1)) % HUE_MAX
-    hi = (colour.hue_hi + _margin(colour, others, config.hue_margin, +1)) % HUE_MAX
-    s = round(colour.sat_min * config.sat_share)
-    v = colour.val_min
-    spans = ((lo, HUE_MAX - 1), (0, hi)) if lo > hi else ((lo, hi),)
-    return [(np.array([a, s, v], np.uint8), np.array([b, 255, 255], np.uint8)) for a, b in spans]
-
-
-def colour_mask(hsv: Mat, colour: ColourRange, config: ClassifyConfig,
-                others: Sequence[ColourRange] = ()) -> Mat:
-    """The 0/255 mask of the pixels of ``hsv`` in ``colour``'s box (see :func:`colour_bounds`)."""
-    bounds = colour_bounds(colour, config, others)
-    mask: Mat = cv2.inRange(hsv, bounds[0][0], bounds[0][1])
-    for low, high in bounds[1:]:
-        mask = cv2.bitwise_or(mask, cv2.inRange(hsv, low, high))
-    return mask
+def floors(colour: ColourRange, config: ClassifyConfig) -> tuple[int, int]:
+    """A pixel's least saturation and value (0..255) for ``colour``."""
+    return round(colour.sat_min * config.sat_share), colour.val_min
 
 
 def classify(scene: Scene, config: ClassifyConfig) -> Scene:
     """The scene with one mask per palette colour (needs :mod:`.photometry`)."""
     assert scene.hsv is not None, "classify needs photometry first"
-    palette = scene.palette
-    return replace(scene, masks=tuple(
-        colour_mask(scene.hsv, c, config, [o for o in palette if o is not c]) for c in palette))
+    label = cv2.LUT(np.ascontiguousarray(scene.hsv[..., 0]),
+                    hue_table(scene.palette, config.hue_margin))
+    masks = []
+    for k, colour in enumerate(scene.palette):
+        s, v = floors(colour, config)
+        floor = cv2.inRange(scene.hsv, np.array([0, s, v], np.uint8),
+                            np.array([255, 255, 255], np.uint8))
+        masks.append(cv2.bitwise_and(cv2.inRange(label, k + 1, k + 1), floor))
+    return replace(scene, masks=tuple(masks))

@@ -7,8 +7,9 @@ whole frame, so a dim room or a frame with a lamp in it leaves the marks a few t
 levels. The stage therefore applies a software gain that brings the frame's ``percentile``-th
 brightest value (max of B, G, R) to ``target_value`` (never below 1×, never above
 ``max_gain``): after it, every value floor is relative to the frame's exposure. The light's
-colour is taken out by grey world on the channels' medians (robust to a mark or a board
-filling a tenth of the frame), each channel's correction bounded by :data:`MAX_CAST` and its
+colour is taken out by grey world on the frame's grey part (its less saturated pixels,
+neither dark nor clipped: a board, a carpet or the marks cannot pull it), each channel's
+correction bounded by :data:`MAX_CAST` and its
 green–magenta part by ``tint_limit``: a tinted
 lamp's greys come back grey (their saturation, which the floors read, falls back), while a
 room whose walls are really coloured is corrected only so far. Both corrections are one
@@ -34,6 +35,19 @@ __all__ = ["MAX_CAST", "PhotometryConfig", "correction_gains", "correction_table
 #: percentiles and medians of 1/16 of the pixels differ from the whole frame's by under a grey
 #: level on the project's frames, at 1/16 of the cost.
 _SAMPLE_STEP = 4
+#: The frame's grey part: pixels whose saturation is at most 25 above the frame's 40th
+#: percentile (within 60..160: a strong cast lifts grey to S ≈ 100, paint sits near 255),
+#: neither dark (V ≤ 16: noise) nor clipped (V ≥ 250: the cast is lost there). Marks,
+#: boards and carpets of strong colour are not grey, so they cannot pull the correction.
+_GREY_RANK = 40.0
+_GREY_S_ABOVE = 25.0
+_GREY_S_MIN, _GREY_S_MAX = 60.0, 160.0
+_DARK, _CLIPPED = 16, 250
+#: Under this share of grey pixels there is no grey to balance against: no correction.
+_MIN_GREY_SHARE = 0.05
+#: 8-bit levels, and the whole in percent.
+_LEVELS = 256
+_PERCENT = 100.0
 #: Largest per-channel light-colour correction (×, and 1/× down): a lamp from 2700 K to
 #: 6500 K moves the blue-to-red ratio by about 1.6× each way from daylight.
 MAX_CAST = 1.6
@@ -61,9 +75,9 @@ class PhotometryConfig:
     tint_limit: float | None = None
 
     def __post_init__(self) -> None:
-        if not 0 < self.target_value <= 255:
+        if not 0 < self.target_value <= _LEVELS - 1:
             raise ValueError(f"target_value must be in (0, 255], got {self.target_value}")
-        if not 0 < self.percentile <= 100:
+        if not 0 < self.percentile <= _PERCENT:
             raise ValueError(f"percentile must be in (0, 100], got {self.percentile}")
         if not self.max_gain >= 1.0:
             raise ValueError(f"max_gain must be >= 1, got {self.max_gain}")
@@ -93,13 +107,26 @@ def table_of(gains: Mat) -> Mat:
     return table
 
 
+def _grey_world(sample: Mat) -> Mat:
+    """Per-channel gains (B, G, R) that make the sample's grey part grey (see the module
+    docstring), within :data:`MAX_CAST`; 1 when under :data:`_MIN_GREY_SHARE` of it is grey."""
+    hsv = cv2.cvtColor(sample, cv2.COLOR_BGR2HSV)
+    sat, val = hsv[..., 1], hsv[..., 2]
+    s_max = min(_GREY_S_MAX, max(_GREY_S_MIN, _percentile(sat, _GREY_RANK) + _GREY_S_ABOVE))
+    grey = ((sat <= s_max) & (val > _DARK) & (val < _CLIPPED)).astype(np.uint8)
+    if cv2.countNonZero(grey) < _MIN_GREY_SHARE * grey.size:
+        return np.ones(3)
+    means = np.array(cv2.mean(sample, grey)[:3]) + 1.0
+    gains: Mat = np.clip(float(means.mean()) / means, 1.0 / MAX_CAST, MAX_CAST)
+    return gains
+
+
 def correction_gains(small: Mat, config: PhotometryConfig) -> Mat:
     """The per-channel gains (B, G, R) of the exposure and light-colour correction for a
     search image ``small`` (BGR)."""
     sample = np.ascontiguousarray(small[::_SAMPLE_STEP, ::_SAMPLE_STEP])
     channels = cv2.split(sample)
-    medians = np.array([_percentile(c, 50.0) for c in channels]) + 1.0
-    cast = np.clip(float(medians.mean()) / medians, 1.0 / MAX_CAST, MAX_CAST)
+    cast = _grey_world(sample)
     if config.tint_limit is not None:
         logs = np.log(cast)
         tint = logs[1] - 0.5 * (logs[0] + logs[2])

@@ -36,6 +36,8 @@ __all__ = ["STAGES", "Blob", "Detector", "DetectorConfig", "Scene", "Stage", "de
            "run_stages"]
 
 U8Array = npt.NDArray[np.uint8]
+#: A BGR frame is rows × columns × 3 channels.
+_BGR_DIMS = 3
 
 
 @dataclass(frozen=True)
@@ -47,6 +49,10 @@ class DetectorConfig:
     segment: SegmentConfig = field(default_factory=SegmentConfig)
     shape: ShapeConfig = field(default_factory=ShapeConfig)
     suppress: SuppressConfig = field(default_factory=SuppressConfig)
+    #: ``shape.min_radius_px`` holds for frames this wide (px); wider frames scale it up in
+    #: proportion (a 1280-px frame of the same scene has marks twice as large, and clutter
+    #: twice as many pixels to look round in). ``None``: fixed pixels (a camera's config).
+    reference_width: int | None = 640
 
     @classmethod
     def for_camera(cls, *, focal_px: float, mark_radius_mm: float, max_range_mm: float,
@@ -56,7 +62,15 @@ class DetectorConfig:
         if not (focal_px > 0 and mark_radius_mm > 0 and max_range_mm > 0):
             raise ValueError("focal_px, mark_radius_mm and max_range_mm must be positive")
         r_min = max(floor_px, 0.9 * focal_px * mark_radius_mm / max_range_mm)
-        return cls().with_(shape={"min_radius_px": r_min})
+        return replace(cls().with_(shape={"min_radius_px": r_min}), reference_width=None)
+
+    def for_width(self, width: int) -> DetectorConfig:
+        """This config for frames ``width`` px wide (see ``reference_width``)."""
+        ref = self.reference_width
+        if ref is None or width <= ref:
+            return self
+        scaled = self.with_(shape={"min_radius_px": self.shape.min_radius_px * width / ref})
+        return replace(scaled, reference_width=None)
 
     def with_(self, **changes: dict[str, Any]) -> DetectorConfig:
         """This config with some stages' fields changed: ``with_(shape={"min_fill": 0.7})``."""
@@ -100,11 +114,12 @@ class Detector:
 
     def detect(self, image: U8Array) -> list[Mark]:
         """The marks in one BGR frame, largest (nearest) first."""
-        if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8 or \
+        if image.ndim != _BGR_DIMS or image.shape[2] != _BGR_DIMS or image.dtype != np.uint8 or \
                 min(image.shape[:2]) < SEARCH_SCALE:
             raise ValueError(f"expected a BGR uint8 image, got shape {image.shape} "
                              f"dtype {image.dtype}")
-        return list(run_stages(image, self.palette, self.config).marks)
+        config = self.config.for_width(image.shape[1])
+        return list(run_stages(image, self.palette, config).marks)
 
 
 def detect_marks(image: U8Array, palette: Palette = DEFAULT_PALETTE) -> list[Mark]:

@@ -75,6 +75,8 @@ OPEN_PX = 3
 #: (2.5 px full resolution, :data:`~marknav.vision.detect.model.MIN_RADIUS_FLOOR_PX`) seen at
 #: the steepest view an axis ratio allows (0.3).
 MIN_AREA_PX = max(4.0, 0.3 * math.pi * (MIN_RADIUS_FLOOR_PX / SEARCH_SCALE) ** 2)
+#: The smallest blob worth cutting or joining: two of the smallest blobs.
+_MIN_CUT_AREA_PX = 2 * MIN_AREA_PX
 
 
 def cut_along_edges(mask: Mat, edges: Mat) -> Mat:
@@ -101,7 +103,7 @@ def _pieces(contour: Mat, mask: Mat, bgr: Mat | None, config: SegmentConfig,
     area = cv2.contourArea(contour)
     frame = _frame_if_cut(contour, mask)
     fit = whole(Blob(colour, contour, area)) if frame is None else None
-    if fit is not None or bgr is None or area < 2 * MIN_AREA_PX:
+    if fit is not None or bgr is None or area < _MIN_CUT_AREA_PX:
         return [Blob(colour, contour, area, fit) if fit is not None or frame is None
                 else _partial(colour, contour, area, frame, whole)]
     x, y, w, h = cv2.boundingRect(contour)
@@ -147,8 +149,8 @@ def _bridged(blobs: list[Blob], whole: Screen, colour: int, bridge_px: int) -> l
     """Blobs of one colour that are no mark alone but are one together: two pieces within
     ``bridge_px`` of each other whose convex hull they fill but for a thin strip (a pole,
     a wire, a seam in front of a mark), and which is a mark's shape."""
-    loose = [b for b in blobs if b.ellipse is None and b.area >= 2 * MIN_AREA_PX]
-    if bridge_px <= 0 or not 2 <= len(loose) <= _MAX_LOOSE:
+    loose = [b for b in blobs if b.ellipse is None and b.area >= _MIN_CUT_AREA_PX]
+    if bridge_px <= 0 or not len(loose) > 1 or len(loose) > _MAX_LOOSE:
         return []
     box = np.array([cv2.boundingRect(b.contour) for b in loose], np.int64)
     x0, y0, x1, y1 = box[:, 0], box[:, 1], box[:, 0] + box[:, 2], box[:, 1] + box[:, 3]

@@ -69,6 +69,8 @@ _OUTLINE_SAMPLES = 64
 #: axis of an ellipse turned in the image spans its bounding box's diagonal at most √2 of
 #: the longer side, less a pixel of rounding).
 _MIN_EXTENT = 0.6
+#: The narrowest window (px) a mark is measured in.
+_MIN_WINDOW_PX = 3
 #: The fewest pixels the mark's and the ring's chroma are taken from.
 _MIN_PIXELS = 4
 
@@ -97,10 +99,13 @@ class ShapeConfig:
     #: mark's paint to its surroundings: paint against a grey or other-coloured surface steps
     #: by 90+, out-of-focus clutter and a patch of a coloured surface by under 40.
     min_contrast: float = 50.0
-    #: Largest texture inside the mark (median absolute deviation from its median colour,
-    #: summed over B, G, R; levels): paint is flat (under 20 with sensor noise and shading),
-    #: foliage, fabric and skin are not.
-    max_texture: float = 30.0
+    #: Largest texture inside the mark: the median absolute deviation from its median colour
+    #: (summed over B, G, R) as a share of that colour's chroma (its distance from grey, summed
+    #: over B, G, R), so neither the exposure nor the gain changes it. Paint is flat, foliage,
+    #: fabric and skin vary by as much as their colour. On the tuning half recall holds from
+    #: 0.1 to 0.3 and falls below 0.07 (marks' shading and noise); 0.2 is the middle of that
+    #: plateau (a glossy sweet's highlights measure 0.17).
+    max_texture: float = 0.2
     #: Most blobs one frame's marks are measured from, the largest first: a crowded view (a
     #: poster of coloured squares, a rug) passes hundreds through the screen at about 0.1 ms
     #: each; the rest are left unmeasured. The project's frames pass at most 120.
@@ -218,7 +223,7 @@ def _window(scene: Scene, blob: Blob) -> tuple[int, int, Mat, Mat] | None:
     x0, y0 = max(0, bx * SEARCH_SCALE - pad), max(0, by * SEARCH_SCALE - pad)
     x1 = min(w, (bx + bw) * SEARCH_SCALE + pad)
     y1 = min(h, (by + bh) * SEARCH_SCALE + pad)
-    if x1 - x0 < 3 or y1 - y0 < 3:
+    if x1 - x0 < _MIN_WINDOW_PX or y1 - y0 < _MIN_WINDOW_PX:
         return None
     roi = np.ascontiguousarray(scene.image[y0:y1, x0:x1])
     inside = np.zeros((y1 - y0, x1 - x0), np.uint8)
@@ -242,7 +247,8 @@ def _alpha(roi: Mat, inside: Mat, gains: Mat, config: ShapeConfig,
     pixels = roi.reshape(-1, 3)
     own = pixels[core.ravel()]
     paint = np.median(own, axis=0)
-    if float(np.median((np.abs(own - paint) * gains).sum(axis=1))) > config.max_texture:
+    chroma = float(np.abs(paint - paint.mean()).sum()) + 1.0
+    if float(np.median(np.abs(own - paint).sum(axis=1))) > config.max_texture * chroma:
         return None
     behind = pixels[ring.ravel()]
     back = np.median(behind, axis=0) if len(behind) >= _MIN_PIXELS else np.zeros(3)

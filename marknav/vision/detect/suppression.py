@@ -1,8 +1,8 @@
 """Stage 5, suppression: the marks that can be the course's, one per object.
 
 A mark's centre stands at camera height (paper §3.1), so with a horizon band set only marks
-centred in it are kept. Of two marks of a colour one of whose centres lies inside the other,
-the larger stands: a visible
+centred in it are kept. Of two marks one of whose centres lies inside the other, the larger
+stands: a visible
 mark's centre cannot lie behind another mark's face, so the smaller is a piece of it (a
 highlight's cut, a seam) or clutter in front of it. Largest (nearest) first.
 """
@@ -44,8 +44,7 @@ def suppress(scene: Scene, config: SuppressConfig) -> Scene:
     for m in sorted(scene.marks, key=lambda m: -m.radius):
         if row is not None and abs(m.y - row) > config.horizon_tolerance_px:
             continue
-        if any(k.colour == m.colour and (centre_inside(m, k) or centre_inside(k, m))
-               for k in kept):
+        if any(centre_inside(m, k) or centre_inside(k, m) for k in kept):
             continue
         kept.append(m)
     return replace(scene, marks=tuple(kept))

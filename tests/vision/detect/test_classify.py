@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from marknav.vision.detect.classify import ClassifyConfig, classify, colour_bounds
+from marknav.vision.detect.classify import ClassifyConfig, classify, floors, hue_table
 from marknav.vision.detect.scene import Scene
 from marknav.vision.palette import ColourRange
 
@@ -35,11 +35,22 @@ def test_pixel_classes(hsv: tuple[int, int, int], red: bool, green: bool) -> Non
     assert [bool(m[0, 0]) for m in masks] == [red, green]
 
 
-def test_wrapping_range_gives_two_spans() -> None:
-    assert len(colour_bounds(RED, ClassifyConfig())) == 2
-    assert len(colour_bounds(GREEN, ClassifyConfig())) == 1
-    low, high = colour_bounds(GREEN, ClassifyConfig(hue_margin=0, sat_share=1.0))[0]
-    assert low.tolist() == [40, 100, 50] and high.tolist() == [85, 255, 255]
+ORANGE = ColourRange("orange", 6, 20)
+
+
+@pytest.mark.parametrize(("hue", "colour"), [
+    (179, 1), (0, 1), (3, 1), (174, 1),  # red, past the wrap, within its margin
+    (4, 1), (5, 2),                       # between red and orange: the nearer
+    (6, 2), (22, 2), (23, 0),             # orange and its margin
+    (60, 3), (38, 3), (37, 0),
+])
+def test_each_hue_has_one_colour(hue: int, colour: int) -> None:
+    assert hue_table((RED, ORANGE, GREEN), 2)[hue] == colour
+
+
+def test_floors_scale_the_palettes_saturation() -> None:
+    assert floors(GREEN, ClassifyConfig(sat_share=1.0)) == (100, 50)
+    assert floors(GREEN, ClassifyConfig()) == (70, 50)
 
 
 def test_masks_match_opencv_hsv_of_a_painted_frame() -> None:
