@@ -1,22 +1,20 @@
 """Stage 1, photometry: the frame as if exposed for its marks and lit by white light.
 
-**Design.** Hue and saturation are ratios of the channels, so a frame's brightness leaves them
-alone — until the marks are so dark that 8-bit steps and sensor noise decide them, and until
-the value floors that keep out shadows cut the marks too. A camera's auto-exposure meters the
-whole frame, so a dim room or a frame with a lamp in it leaves the marks a few tens of grey
-levels. The stage therefore applies a software gain that brings the frame's ``percentile``-th
-brightest value (max of B, G, R) to ``target_value`` (never below 1×, never above
-``max_gain``): after it, every value floor is relative to the frame's exposure. The light's
-colour is taken out by grey world on the frame's grey part (its less saturated pixels,
-neither dark nor clipped: a board, a carpet or the marks cannot pull it), each channel's
-correction bounded by :data:`MAX_CAST` and its
-green–magenta part by ``tint_limit``: a tinted
-lamp's greys come back grey (their saturation, which the floors read, falls back), while a
-room whose walls are really coloured is corrected only so far. Both corrections are one
-per-channel gain (``Scene.gains``), applied through a table (``Scene.lut``) to the half-size
-search image; the marks are measured in the frame's own pixels, where a blurred rim still mixes
-paint and surroundings linearly (no channel clipped by the gain), and judged in corrected units
-(:mod:`.shape`).
+**Design.** Hue and saturation are ratios of the channels, so a frame's brightness leaves them alone
+— until the marks are so dark that 8-bit steps and sensor noise decide them, and until the value
+floors that keep out shadows cut the marks too. A camera's auto-exposure meters the whole frame, so
+a dim room or a frame with a lamp in it leaves the marks a few tens of grey levels. The stage
+therefore applies a software gain that brings the frame's :data:`BRIGHT_PERCENTILE`-th brightest
+value (max of B, G, R) to ``target_value`` (never below 1×, never above ``max_gain``): after it,
+every value floor is relative to the frame's exposure. The light's colour is taken out by grey world
+on the frame's grey part (its less saturated pixels, neither dark nor clipped: a board, a carpet or
+the marks cannot pull it), each channel's correction bounded by :data:`MAX_CAST` and its
+green–magenta part by ``tint_limit``: a tinted lamp's greys come back grey (their saturation, which
+the floors read, falls back), while a room whose walls are really coloured is corrected only so far.
+Both corrections are one per-channel gain (``Scene.gains``), applied through a table (``Scene.lut``)
+to the half-size search image; the marks are measured in the frame's own pixels, where a blurred rim
+still mixes paint and surroundings linearly (no channel clipped by the gain), and judged in
+corrected units (:mod:`.shape`).
 """
 
 from __future__ import annotations
@@ -45,6 +43,9 @@ _GREY_S_MIN, _GREY_S_MAX = 60.0, 160.0
 _DARK, _CLIPPED = 16, 250
 #: Under this share of grey pixels there is no grey to balance against: no correction.
 _MIN_GREY_SHARE = 0.05
+#: Percentile (%) of the brightest channel that is the frame's bright end: 99 ignores a lamp
+#: or a specular highlight covering under 1 % of the frame.
+BRIGHT_PERCENTILE = 99.0
 #: 8-bit levels, and the whole in percent.
 _LEVELS = 256
 _PERCENT = 100.0
@@ -60,9 +61,6 @@ class PhotometryConfig:
     #: Grey level (0..255) the frame's bright end is brought to: 200 leaves headroom for
     #: highlights while a white sheet or a lamp-lit wall reads as white.
     target_value: float = 200.0
-    #: Percentile (%) of the brightest channel that is the frame's bright end: 99 ignores a
-    #: lamp or a specular highlight covering under 1 % of the frame.
-    percentile: float = 99.0
     #: Largest software gain (×): 8× is three stops, what a dim room under-exposes a camera
     #: metering a window or lamp by; more amplifies noise into colour.
     max_gain: float = 8.0
@@ -77,8 +75,6 @@ class PhotometryConfig:
     def __post_init__(self) -> None:
         if not 0 < self.target_value <= _LEVELS - 1:
             raise ValueError(f"target_value must be in (0, 255], got {self.target_value}")
-        if not 0 < self.percentile <= _PERCENT:
-            raise ValueError(f"percentile must be in (0, 100], got {self.percentile}")
         if not self.max_gain >= 1.0:
             raise ValueError(f"max_gain must be >= 1, got {self.max_gain}")
         if self.tint_limit is not None and not 0.0 <= self.tint_limit <= 1.0:
@@ -136,7 +132,7 @@ def correction_gains(small: Mat, config: PhotometryConfig) -> Mat:
         cast = np.exp(logs)
     balanced = [cv2.convertScaleAbs(c, alpha=float(k)) for c, k in zip(channels, cast, strict=True)]
     brightest = cv2.max(cv2.max(balanced[0], balanced[1]), balanced[2])
-    bright = _percentile(brightest, config.percentile)
+    bright = _percentile(brightest, BRIGHT_PERCENTILE)
     gain = float(np.clip(config.target_value / max(bright, 1.0), 1.0, config.max_gain))
     gains: Mat = gain * cast
     return gains
