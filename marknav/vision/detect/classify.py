@@ -14,7 +14,7 @@ is the same box (:mod:`marknav.vision.palette_teach`).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import functools
 from dataclasses import dataclass, replace
 
 import cv2
@@ -24,6 +24,10 @@ from marknav.vision.detect.scene import Mat, Scene
 from marknav.vision.palette import HUE_MAX, ColourRange
 
 __all__ = ["ClassifyConfig", "classify", "floors", "hue_table"]
+
+
+#: Hue tables kept (one per palette and margin a process uses).
+_TABLES_KEPT = 32
 
 
 @dataclass(frozen=True)
@@ -44,15 +48,18 @@ class ClassifyConfig:
             raise ValueError(f"sat_share must be in [0, 1], got {self.sat_share}")
 
 
-def hue_table(palette: Sequence[ColourRange], margin: int) -> Mat:
+@functools.lru_cache(maxsize=_TABLES_KEPT)
+def hue_table(palette: tuple[ColourRange, ...], margin: int) -> Mat:
     """The 256-entry table from a pixel's hue (0..179) to its palette colour's index + 1 (0:
     none): the colour whose range holds the hue, else the nearest one within ``margin``
-    (hue units; the first of equally near ones)."""
+    (hue units; the first of equally near ones). Kept per palette and margin (a pure
+    function of them; read-only)."""
     table = np.zeros(256, np.uint8)
     for hue in range(HUE_MAX):
         near = [(c.distance(hue), k) for k, c in enumerate(palette) if c.distance(hue) <= margin]
         if near:
             table[hue] = min(near)[1] + 1
+    table.setflags(write=False)
     return table
 
 

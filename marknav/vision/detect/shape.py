@@ -71,6 +71,8 @@ _OUTLINE_SAMPLES = 64
 _MIN_EXTENT = 0.6
 #: The narrowest window (px) a mark is measured in.
 _MIN_WINDOW_PX = 3
+#: The most pixels a median of paint or surroundings is read from.
+_MEDIAN_PIXELS = 1024
 #: The fewest pixels the mark's and the ring's chroma are taken from.
 _MIN_PIXELS = 4
 
@@ -233,6 +235,14 @@ def _window(scene: Scene, blob: Blob) -> tuple[int, int, Mat, Mat] | None:
     return x0, y0, roi, inside
 
 
+def _thinned(pixels: Mat) -> Mat:
+    """At most :data:`_MEDIAN_PIXELS` of ``pixels``, evenly taken (a median of a large mark's
+    thousands of pixels moves by under a level when read from a thousand of them)."""
+    step = max(1, len(pixels) // _MEDIAN_PIXELS)
+    out: Mat = pixels[::step]
+    return out
+
+
 def _alpha(roi: Mat, inside: Mat, gains: Mat, config: ShapeConfig,
            grow_px: int = 0) -> Mat | None:
     """The mark's coverage in its window (see the module docstring), or ``None`` when its
@@ -245,12 +255,12 @@ def _alpha(roi: Mat, inside: Mat, gains: Mat, config: ShapeConfig,
     if cv2.countNonZero(core.view(np.uint8)) < _MIN_PIXELS:
         core = inside > 0
     pixels = roi.reshape(-1, 3)
-    own = pixels[core.ravel()]
+    own = _thinned(pixels[core.ravel()])
     paint = np.median(own, axis=0)
     chroma = float(np.abs(paint - paint.mean()).sum()) + 1.0
     if float(np.median(np.abs(own - paint).sum(axis=1))) > config.max_texture * chroma:
         return None
-    behind = pixels[ring.ravel()]
+    behind = _thinned(pixels[ring.ravel()])
     back = np.median(behind, axis=0) if len(behind) >= _MIN_PIXELS else np.zeros(3)
     step = paint - back
     seen = step * gains
