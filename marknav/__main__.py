@@ -1,8 +1,8 @@
 """``python -m marknav`` and the ``marknav`` console script: the first code marknav runs.
 
 The signal policy (:mod:`marknav.core.signals`, which imports nothing heavy) is installed before
-the command line and its sub-commands are imported, so a Ctrl-C or SIGTERM in the first fraction
-of a second exits 130 like any other, without a traceback; the process ends through
+the command line and its sub-commands are imported, so a Ctrl-C, SIGTERM or SIGHUP in the first
+fraction of a second exits 130 like any other, without a traceback; the process ends through
 :func:`marknav.core.signals.exit_process`, so one after the command returned does too.
 """
 
@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import signal
+import sys
 
 
 def entry() -> None:
@@ -24,7 +25,8 @@ def entry() -> None:
         with signals.deferred():
             from marknav.cli.main import main
     except KeyboardInterrupt:  # before the command line was ready: nothing was started
-        for s in (signal.SIGINT, signal.SIGTERM):
+        policy = sys.modules.get("marknav.core.signals")
+        for s in getattr(policy, "ENDING_SIGNALS", (signal.SIGINT, signal.SIGTERM)):
             signal.signal(s, signal.SIG_IGN)
         os.write(2, b"marknav: interrupted\n")
         os._exit(130)

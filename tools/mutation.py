@@ -53,25 +53,25 @@ MODULES: dict[str, Module] = {
         "tests/behaviours/test_bypass.py", "tests/behaviours/test_bypass_edges.py",
         "tests/behaviours/test_route.py")),
     "oi": Module("marknav/robot/oi.py", (
-        "tests/drivers/test_oi.py", "tests/drivers/test_oi_edges.py",
-        "tests/drivers/test_stream.py", "tests/drivers/test_driver.py")),
+        "tests/robot/test_oi.py", "tests/robot/test_oi_edges.py",
+        "tests/robot/test_oi_stream.py", "tests/robot/test_driver.py")),
     "driver": Module("marknav/robot/driver.py", (
-        "tests/drivers/test_driver.py", "tests/drivers/test_driver_lifecycle.py",
-        "tests/drivers/test_driver_odometry.py")),
+        "tests/robot/test_driver.py", "tests/robot/test_driver_lifecycle.py",
+        "tests/robot/test_odometry.py")),
     "safety": Module("marknav/robot/safety.py", (
-        "tests/drivers/test_safety.py", "tests/behaviours/test_safety.py",
-        "tests/testing/test_fake_robot.py", "tests/drivers/test_driver.py")),
+        "tests/robot/test_safety.py", "tests/behaviours/test_safety.py",
+        "tests/testing/test_fake_robot.py", "tests/robot/test_driver.py")),
     # the ground truth per waypoint, from the true path alone
     "truth": Module("marknav/runs/metrics/truth.py", (
-        "tests/sim/test_truth.py", "tests/sim/test_truth_edges.py")),
+        "tests/runs/metrics/test_truth.py", "tests/runs/metrics/test_truth_edges.py")),
     # the evaluation's verdict of one run (not the run itself)
     "verdict": Module("marknav/runs/evaluation/job.py", (
-        "tests/runs/test_evaluate.py", "tests/runs/test_verdict_edges.py",
+        "tests/runs/evaluation/test_evaluate.py", "tests/runs/metrics/test_verdict_edges.py",
         "tests/missions/test_truth_runs.py"),
         only=("marknav.runs.evaluation.job.xǁSeedResultǁ*",)),
     # the evaluation's statistics over the runs (not its text)
     "statistics": Module("marknav/runs/metrics/statistics.py", (
-        "tests/runs/test_evaluate.py", "tests/runs/test_verdict_edges.py",
+        "tests/runs/evaluation/test_evaluate.py", "tests/runs/metrics/test_verdict_edges.py",
         "tests/missions/test_truth_runs.py"),
         only=("marknav.runs.metrics.statistics.x_summarise*",
               "marknav.runs.metrics.statistics.x_wilson_interval*",

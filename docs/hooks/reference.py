@@ -10,8 +10,8 @@ Adds three pages to the site, so they can never disagree with the installed mark
   ``marknav schema --world``; raw schema ``reference/world.schema.json``.
 
 The help texts come from the parser itself (:func:`marknav.cli.main.build_parser`), formatted
-for a 100-column terminal, which is what ``python -m marknav COMMAND --help`` prints with
-``COLUMNS=100``.
+for an 80-column terminal (:data:`HELP_COLUMNS`), which is what ``python -m marknav COMMAND
+--help`` prints with ``COLUMNS=80``.
 """
 
 from __future__ import annotations
@@ -26,7 +26,9 @@ from typing import Any
 from mkdocs.config.defaults import MkDocsConfig
 from mkdocs.structure.files import File, Files
 
-HELP_COLUMNS = 100
+#: The width the help is wrapped to: Material's text column shows about 80 characters of a code
+#: block at its default font size before it scrolls sideways (100 made 198 of 532 lines scroll).
+HELP_COLUMNS = 80
 
 
 @contextmanager
@@ -150,7 +152,21 @@ def _default(prop: dict[str, Any], required: bool) -> str:
     return f"`{_cell(text)}`"
 
 
-def _table(model: dict[str, Any]) -> list[str]:
+def _meaning(prop: dict[str, Any], defs: dict[str, Any]) -> str:
+    """A key's description; for a key that is a section of its own and has none, the first
+    sentence of that section's."""
+    if prop.get("description"):
+        return str(prop["description"])
+    refs = [prop.get("$ref", "")] + [p.get("$ref", "") for p in prop.get("anyOf", [])]
+    for ref in refs:
+        section = defs.get(ref.rsplit("/", 1)[-1]) if ref else None
+        if section and section.get("description"):
+            first = str(section["description"]).split("\n\n")[0].split(". ")[0].rstrip(".")
+            return f"{first} (its section below)."
+    return ""
+
+
+def _table(model: dict[str, Any], defs: dict[str, Any] | None = None) -> list[str]:
     props: dict[str, Any] = model.get("properties", {})
     if not props:
         return ["(no keys)", ""]
@@ -159,16 +175,16 @@ def _table(model: dict[str, Any]) -> list[str]:
     for key, prop in props.items():
         rows.append(
             f"| `{key}` | {_cell(_type(prop))} | {_default(prop, key in required)} | "
-            f"{_cell(_limits(prop))} | {_cell(prop.get('description', ''))} |"
+            f"{_cell(_limits(prop))} | {_cell(_meaning(prop, defs or {}))} |"
         )
     return [*rows, ""]
 
 
-def _model_section(name: str, model: dict[str, Any]) -> list[str]:
+def _model_section(name: str, model: dict[str, Any], defs: dict[str, Any]) -> list[str]:
     out = [f"### {name} {{#{_anchor(name)}}}", ""]
     if model.get("description"):
         out += [model["description"], ""]
-    return out + _table(model)
+    return out + _table(model, defs)
 
 
 def _node_types(tree_node: dict[str, Any]) -> list[str]:
@@ -202,10 +218,10 @@ def schema_page(schema: dict[str, Any], *, title: str, intro: str, command: str,
     ]
     if schema.get("description"):
         out += [schema["description"], ""]
-    out += _table(schema)
+    out += _table(schema, defs)
     out += ["## Sections", ""]
     for name in sorted(defs):
-        out += _model_section(name, defs[name])
+        out += _model_section(name, defs[name], defs)
     if "TreeNode" in defs:
         node_types = _node_types(defs["TreeNode"])
         if node_types:
@@ -229,7 +245,7 @@ def _add(files: Files, config: MkDocsConfig, uri: str, content: str) -> None:
 
 def on_files(files: Files, config: MkDocsConfig) -> Files:
     from marknav.missions.schema import mission_json_schema
-    from marknav.sim.world_schema import world_json_schema
+    from marknav.sim.world.json_schema import world_json_schema
 
     mission = mission_json_schema(plugins=[])
     world = world_json_schema()

@@ -14,8 +14,11 @@ the report show. It writes ``/marknav/frame``, ``/marknav/marks``,
 ``/marknav/last_seen`` and refreshes the target's sighting (:func:`~marknav.behaviours.target.
 associate`), so every later node of the tick sees one consistent picture.
 
-While it watches, it calibrates odometry (``robot.calibrate_wheels``, on by default, with a robot
-that supports it): marks stand still, so their drift in the odometry frame measures the wheels'
+While it watches, it learns: each frame's marks, with the capture time and the pose then, go as
+one :class:`~marknav.behaviours.learners.Sighting` to each of its learners
+(:mod:`marknav.behaviours.learners`: horizon, wheel ratio, range law), in that order. It
+calibrates odometry (``robot.calibrate_wheels``, on by default, with a robot that supports it):
+marks stand still, so their drift in the odometry frame measures the wheels'
 ratio (:mod:`marknav.planning.wheel_ratio`); each precise fit rescales the right wheel. The same
 stillness measures the range law (``camera.learn_range``, on by default): the distance driven
 toward a mark is what its radius change must mean (:mod:`marknav.vision.range_learning`); each
@@ -48,9 +51,17 @@ from py_trees.common import Status
 
 from marknav.behaviours import keys
 from marknav.behaviours.base import MarknavBehaviour, SetupError, check_positive
+from marknav.behaviours.learners import (
+    HorizonLearning,
+    RangeLawLearning,
+    SightedMark,
+    Sighting,
+    SightingLearner,
+    WheelRatioLearning,
+)
 from marknav.behaviours.target import (
     associate,
-    describe,
+    describe_target,
     excluded_passes,
     memory_gone,
     remember,
@@ -64,9 +75,9 @@ from marknav.missions.camera import (
 )
 from marknav.planning.kinematics import Pose, to_world_frame
 from marknav.planning.pose_history import PoseHistory
-from marknav.planning.wheel_ratio import WheelRatioCalibrator, WheelRatioStep
+from marknav.planning.wheel_ratio import Sensitivity, WheelRatioStep
 from marknav.robot.robot import BUMPED, WheelCalibratable
-from marknav.vision.estimate import RangeModel, estimate_disc, upright_extents
+from marknav.vision.estimate import PowerLaw, RangeModel, estimate_disc
 from marknav.vision.range_learning import MIN_RADIUS_FRACTION, RangeLawLearner, RangeLawStep
 from marknav.vision.sources import Frame, FrameSource
 from marknav.vision.undistort import Intrinsics, undistort_mark
@@ -84,6 +95,10 @@ FEEDBACK_MARKS = 3
 
 #: No frame for this long (mission-clock seconds) means the camera is lost.
 DEFAULT_CAMERA_TIMEOUT_S = 1.0
+
+#: A capture time this far (s) outside the pose history counts as beyond it (below: the float
+#: rounding of a time at its edge).
+CLAMP_TOLERANCE_S = 1e-6
 
 
 @dataclass(frozen=True, init=False)
@@ -209,8 +224,8 @@ class PerceptionBase(MarknavBehaviour):
                 or "no marks"
             if len(obs.marks) > len(shown):
                 seen += f" (+{len(obs.marks) - len(shown)} more)"
-            focus = (f"; target {target.label}: {describe(sighting)}" if target is not None
-                     else "")
+            focus = (f"; target {target.label}: {describe_target(target, sighting, obs.marks)}"
+                     if target is not None else "")
             self._frame_message = f"frame {obs.frame.index}: {seen}{focus}"
         return self._frame_message or ""
 
@@ -236,7 +251,8 @@ class PerceptionBase(MarknavBehaviour):
 
 
 class Perception(PerceptionBase):
-    """The camera pipeline: ``FrameSource`` → ``Detector`` → ``estimate`` → blackboard.
+    """The camera pipeline: ``FrameSource`` → ``Detector`` → ``estimate`` → blackboard, and a
+    :class:`~marknav.behaviours.learners.Sighting` a frame to each of :attr:`learners`.
 
     Setup keywords: ``camera`` (a :class:`~marknav.vision.sources.FrameSource`, required),
     ``mission`` (palette, mark radius, range model), ``robot`` (odometry pose), ``clock``;
@@ -258,16 +274,14 @@ class Perception(PerceptionBase):
         #: The latest frame processed and its detections (pixels), for the run log and viewer.
         self.last_frame: Frame | None = None
         self.last_detections: tuple[Mark, ...] = ()
-        self._calibrator: WheelRatioCalibrator | None = None
         self._calibratable: tuple[object, bool] | None = None  # (robot, its isinstance)
-        #: Wheel-ratio corrections applied so far (newest last).
-        self.wheel_calibrations: list[WheelRatioStep] = []
         self._intrinsics: Intrinsics | None = None
         self._scaled: tuple[int, int, Intrinsics | None] | None = None
-        #: The range law's learner (``camera.learn_range``), its steps and where the law began.
-        self.range_learner: RangeLawLearner | None = None
-        self.range_calibrations: list[RangeLawStep] = []
-        self._range_times: list[float] = []
+        #: The learners fed every frame's sighting, in order (built by setup from the mission).
+        self.learners: list[SightingLearner] = []
+        self._horizon: HorizonLearning | None = None
+        self._wheels: WheelRatioLearning | None = None
+        self._range: RangeLawLearning | None = None
         self.range_source = "setup(range_model=...)"
         #: The odometry poses of the last ticks, to place a frame's marks at its capture time.
         self.poses = PoseHistory()
@@ -275,8 +289,26 @@ class Perception(PerceptionBase):
         self.latencies: list[float] = []
         #: Frames older than the pose history: placed with its oldest pose.
         self.frames_beyond_history = 0
-        #: What learning the camera's pose said (see CameraDetector.learn).
-        self.horizon_messages: list[str] = []
+
+    @property
+    def range_learner(self) -> RangeLawLearner | None:
+        """The range law's learner (``camera.learn_range``), if any."""
+        return self._range.learner if self._range is not None else None
+
+    @property
+    def range_calibrations(self) -> Sequence[RangeLawStep]:
+        """The range law's accepted steps (oldest first)."""
+        return self._range.steps if self._range is not None else ()
+
+    @property
+    def wheel_calibrations(self) -> Sequence[WheelRatioStep]:
+        """Wheel-ratio corrections applied so far (newest last)."""
+        return self._wheels.steps if self._wheels is not None else ()
+
+    @property
+    def horizon_messages(self) -> Sequence[str]:
+        """What learning the camera's pose said (see CameraDetector.learn)."""
+        return self._horizon.steps if self._horizon is not None else ()
 
     def configure(self, **kwargs: Any) -> None:
         camera = kwargs.get("camera")
@@ -293,43 +325,65 @@ class Perception(PerceptionBase):
             self._range_model = range_model
         mission = self.mission
         if mission is not None:
-            self._mark_radius_mm = mission.marks.radius_mm
-            self._intrinsics = mission_intrinsics(mission, self._camera)
-            if self._range_model is None:
-                self._range_model, self.range_source = mission_range_model(mission,
-                                                                          self._camera)
-                prior = as_power_law(self._range_model)
-                if mission.camera.learn_range and prior is not None:
-                    self.range_learner = RangeLawLearner(
-                        prior=prior, min_radius_px=MIN_RADIUS_FRACTION * mission.camera.width)
-                    self._range_model = prior
-            if self._detector is None:
-                from marknav.missions.mission_detector import mission_detector
+            self._configure_from(mission)
+        self._build_learners()
 
-                self._detector = mission_detector(mission, self._camera)
-            calibrate = mission.robot.calibrate_wheels
-            if calibrate and self._calibrator is None:
-                self._calibrator = WheelRatioCalibrator()
-            elif not calibrate:
-                self._calibrator = None
+    def _configure_from(self, mission: Mission) -> None:
+        """Mark radius, intrinsics, the range law (and its learner), the detector and wheel
+        calibration from the mission."""
+        self._mark_radius_mm = mission.marks.radius_mm
+        self._intrinsics = mission_intrinsics(mission, self._camera)
+        if self._range_model is None:
+            self._range_model, self.range_source = mission_range_model(mission, self._camera)
+            prior = as_power_law(self._range_model)
+            if mission.camera.learn_range and prior is not None:
+                self._range = RangeLawLearning(RangeLawLearner(
+                    prior=prior, min_radius_px=MIN_RADIUS_FRACTION * mission.camera.width),
+                    on_law=self._use_law)
+                self._range_model = prior
+        if self._detector is None:
+            from marknav.missions.mission_detector import mission_detector
+
+            self._detector = mission_detector(mission, self._camera)
+        calibrate = mission.robot.calibrate_wheels
+        if calibrate and self._wheels is None:
+            self._wheels = WheelRatioLearning(self._odometry, self.poses)
+        elif not calibrate:
+            self._wheels = None
+
+    def _build_learners(self) -> None:
+        """The learners in the order they learn from a frame: horizon, wheel ratio, range law
+        (a law accepted in a frame restarts the wheel ratio's window after it learnt)."""
+        if getattr(self._detector, "learner", None) is not None:
+            if self._horizon is None or self._horizon.detector is not self._detector:
+                self._horizon = HorizonLearning(self._detector)
+        else:
+            self._horizon = None
+        if self._range is not None:
+            self._range.restarts = [self._wheels] if self._wheels is not None else []
+        self.learners = [x for x in (self._horizon, self._wheels, self._range) if x is not None]
+
+    def _use_law(self, law: PowerLaw) -> None:
+        """Estimate the next frames with a newly learnt range law."""
+        self._range_model = law
+
+    def _odometry(self) -> WheelCalibratable | None:
+        """The robot, if wheel calibration is on and it can be calibrated."""
+        if self._wheels is None:
+            return None
+        robot = self.robot
+        return robot if self._wheel_calibratable(robot) else None
 
     def observe(self) -> Observation | None:
-        if self._camera is None:
-            raise SetupError(f"{self._owner} has no camera: set the tree up with "
-                             "tree.setup(camera=..., ...)")
-        if self._detector is None or self._range_model is None or self._mark_radius_mm is None:
-            raise SetupError(f"{self._owner} needs mission= in tree.setup() (palette, mark "
-                             "radius, range model)")
+        camera, detector = self._ready()
         now = self.now()
-        robot = self.robot
-        calibrated = (robot if self._calibrator is not None
-                      and self._wheel_calibratable(robot) else None)
-        if calibrated is not None:
-            pose_now, sensitivity = calibrated.odometry_snapshot()
+        odometry = self._odometry()
+        if odometry is not None:
+            pose_now, sensitivity = odometry.odometry_snapshot()
         else:
-            pose_now, sensitivity = robot.pose(), None
+            pose_now, sensitivity = self.robot.pose(), None
         self.poses.add(now, pose_now, sensitivity or ())
-        frame = self._camera.read()
+        frame = camera.read()
         if frame is None or frame.index == self._last_index:
             return None
         self._last_index = frame.index
@@ -337,54 +391,58 @@ class Perception(PerceptionBase):
         # The capture time (a source's clock a little ahead of the mission clock counts as now).
         t = min(frame.t, now)
         self.latencies.append(now - t)
-        found: list[Mark] = list(self._detector.detect(frame.image))
+        found: list[Mark] = list(detector.detect(frame.image))
         self.last_frame, self.last_detections = frame, tuple(found)
-        intr = self._frame_intrinsics(width, height)
-        if intr is not None and intr.distorted:
-            found = [undistort_mark(m, intr) for m in found]
-        # The odometry pose at capture time, and its sensitivity to the wheel scale then.
-        at = self.poses.at(t)
-        pose = pose_now
-        if at is not None:
-            pose = at.pose
-            if sensitivity is not None and len(at.extra) == 3:
-                sensitivity = (at.extra[0], at.extra[1], at.extra[2])
-            if at.clamped_s > 1e-6 and t < now:
-                self.frames_beyond_history += 1
-        cx = intr.cx if intr is not None else keys.image_centre(width)
-        focal = self._focal_px(intr, width)
-        marks = tuple(self._to_seen(m, width, t, pose, cx, focal) for m in found)
-        if getattr(self._detector, "learner", None) is not None:
-            self._learn_horizon(found, marks, width, height, t, pose, cx)
-        if calibrated is not None and sensitivity is not None:
-            self._calibrate(calibrated, pose, sensitivity, marks)
-        if self.range_learner is not None:
-            self._learn_range(pose, found, marks, width, height)
-        sigma = self.range_learner.sigma[0] if self.range_learner is not None else 0.0
+        pose, sensitivity = self._pose_at(t, now, pose_now, sensitivity)
+        held = getattr(detector, "held_back", ()) if self._horizon is not None else ()
+        sighting = Sighting(t=t, now=now, pose=pose, width=width, height=height,
+                            marks=self._sighted(found, width, height, t, pose),
+                            held_back=self._sighted(held, width, height, t, pose),
+                            sensitivity=sensitivity,
+                            bumped=self.robot.safety_state == BUMPED)
+        for learner in self.learners:
+            learner.observe(sighting)
+        sigma = self._range.learner.sigma[0] if self._range is not None else 0.0
+        marks = tuple(m.seen for m in sighting.marks)
         info = keys.FrameInfo(index=frame.index, t=t, width=width, height=height,
                               marks=len(marks), range_sigma=sigma, latency_s=now - t)
         return Observation(frame=info, marks=marks, pose=pose)
 
-    def _learn_horizon(self, found: list[Mark], marks: tuple[keys.SeenMark, ...], width: int,
-                       height: int, t: float, pose: Pose, cx: float) -> None:
-        """While the camera's pose is learnt (no ``camera.pitch_deg``): the marks used and
-        those the detector held back (outside the band in use) feed the fit."""
-        detector = self._detector
-        held = list(getattr(detector, "held_back", ()))
+    def _ready(self) -> tuple[FrameSource, Any]:
+        """The camera and the detector, or a :class:`SetupError` saying what is missing."""
+        if self._camera is None:
+            raise SetupError(f"{self._owner} has no camera: set the tree up with "
+                             "tree.setup(camera=..., ...)")
+        if self._detector is None or self._range_model is None or self._mark_radius_mm is None:
+            raise SetupError(f"{self._owner} needs mission= in tree.setup() (palette, mark "
+                             "radius, range model)")
+        return self._camera, self._detector
+
+    def _pose_at(self, t: float, now: float, pose_now: Pose,
+                 sensitivity: Sensitivity | None) -> tuple[Pose, Sensitivity | None]:
+        """The odometry pose at capture time ``t``, and its sensitivity to the wheel scale
+        then (the pose now while the history is empty)."""
+        at = self.poses.at(t)
+        if at is None:
+            return pose_now, sensitivity
+        if sensitivity is not None and len(at.extra) == len(sensitivity):
+            sensitivity = (at.extra[0], at.extra[1], at.extra[2])
+        if at.clamped_s > CLAMP_TOLERANCE_S and t < now:
+            self.frames_beyond_history += 1
+        return at.pose, sensitivity
+
+    def _sighted(self, found: Sequence[Mark], width: int, height: int, t: float,
+                 pose: Pose) -> tuple[SightedMark, ...]:
+        """Each detection (undistorted when the lens is known) with its estimate, placed with
+        ``pose``."""
+        if not found:
+            return ()
         intr = self._frame_intrinsics(width, height)
         if intr is not None and intr.distorted:
-            held = [undistort_mark(m, intr) for m in held]
-        sightings = [(m.x, m.y, s.forward_mm) for m, s in zip(found, marks, strict=True)]
+            found = [undistort_mark(m, intr) for m in found]
+        cx = intr.cx if intr is not None else keys.image_centre(width)
         focal = self._focal_px(intr, width)
-        sightings += [(m.x, m.y, self._to_seen(m, width, t, pose, cx, focal).forward_mm)
-                      for m in held]
-        message = detector.learn(sightings, width, height)
-        if message is not None:
-            if "too far off" in message:
-                log.warning("%s", message)
-            else:
-                log.info("%s", message)
-            self.horizon_messages.append(message)
+        return tuple(SightedMark(m, self._to_seen(m, width, t, pose, cx, focal)) for m in found)
 
     def _wheel_calibratable(self, robot: object) -> TypeGuard[WheelCalibratable]:
         """``isinstance(robot, WheelCalibratable)``, asked once per robot (a protocol check
@@ -393,32 +451,6 @@ class Perception(PerceptionBase):
         if known is None or known[0] is not robot:
             known = self._calibratable = (robot, isinstance(robot, WheelCalibratable))
         return known[1]
-
-    def _calibrate(self, robot: WheelCalibratable, pose: Pose,
-                   sensitivity: tuple[float, float, float],
-                   marks: tuple[keys.SeenMark, ...]) -> None:
-        calibrator = self._calibrator
-        assert calibrator is not None
-        if calibrator.samples == 0 and sensitivity != (0.0, 0.0, 0.0):
-            # a new window: its sensitivities count from here (they stay small and linear)
-            robot.anchor_odometry()
-            sensitivity = (0.0, 0.0, 0.0)
-            # From the new anchor the wheel scale acts on motion after it only: the poses
-            # already driven do not depend on it.
-            self.poses.set_extra((0.0, 0.0, 0.0))
-        for m in marks:
-            calibrator.add(m.colour, (pose.x, pose.y), m.world, sensitivity)
-        step = calibrator.correction()
-        if step is None:
-            return
-        before = robot.right_wheel_scale
-        robot.scale_right_wheel(step.factor)  # re-anchors: as above
-        self.poses.set_extra((0.0, 0.0, 0.0))
-        self.wheel_calibrations.append(step)
-        fit = step.fit
-        log.info("odometry: right wheel scale %.4f -> %.4f ± %.4f (fit %+.4f ± %.4f from %d "
-                 "sightings of %d marks, residual %.0f mm)", before, robot.right_wheel_scale,
-                 step.scale_sigma, fit.epsilon, fit.sigma, fit.samples, fit.marks, fit.rms_mm)
 
     def _frame_intrinsics(self, width: int, height: int) -> Intrinsics | None:
         """The intrinsics at this frame's size (scaled if the camera delivers another size than
@@ -433,49 +465,21 @@ class Perception(PerceptionBase):
                             intr.scaled(width / cam.width, height / cam.height))
         return self._scaled[2]
 
-    def _learn_range(self, pose: Pose, found: list[Mark], marks: tuple[keys.SeenMark, ...],
-                     width: int, height: int) -> None:
-        learner = self.range_learner
-        assert learner is not None
-        if self.robot.safety_state == BUMPED:
-            learner.interrupt()  # the bump moved the robot (or the mark) behind odometry's back
-            return
-        for m, seen in zip(found, marks, strict=True):
-            r = m.radius
-            if m.x - r < 2 or m.y - r < 2 or m.x + r > width - 3 or m.y + r > height - 3:
-                continue  # cut by the image edge: its radius is not the mark's
-            # the law maps the vertical semi-axis to range (estimate_disc)
-            upright = upright_extents(m.axes, m.angle_deg)[1]
-            learner.add(m.colour, (pose.x, pose.y, pose.theta), upright, seen.left_mm)
-        step = learner.update()
-        if step is None:
-            return
-        self._range_model = step.after
-        self.range_calibrations.append(step)
-        self._range_times.append(self.now())
-        if self._calibrator is not None and abs(step.change) > 0.01:
-            self._calibrator.reset()  # its window's marks were placed with the old law
-        fit = step.fit
-        log.info("range law: a %.0f b %.4f -> a %.0f b %.4f (%+.1f %% at 1 m; σ %.1f %%, "
-                 "exponent σ %.3f; %d sightings of %d marks, χ %.2f, %d outliers dropped)",
-                 step.before.a, step.before.b, step.after.a, step.after.b, 100.0 * step.change,
-                 100.0 * step.sigma_scale, step.sigma_exponent, fit.samples, fit.marks, fit.chi,
-                 fit.dropped)
-
     def learnt_range(self, times: Sequence[float | None] = ()) -> dict[str, Any] | None:
         """The learnt law for the report: ``{a, b, steps, rejected, samples, started_from,
         source, yaml}``, and ``at`` — the law in use at each of ``times`` (e.g. the waypoints'
         pass times; ``None`` stays ``None``). ``None`` without a learner."""
-        learner = self.range_learner
-        if learner is None:
+        if self._range is None:
             return None
+        learning = self._range
+        learner = learning.learner
         law = learner.law
 
         def at(t: float | None) -> dict[str, float] | None:
             if t is None:
                 return None
-            k = bisect.bisect_right(self._range_times, t)
-            used = self.range_calibrations[k - 1].after if k > 0 else learner.prior
+            k = bisect.bisect_right(learning.times, t)
+            used = learning.steps[k - 1].after if k > 0 else learner.prior
             return {"a": round(used.a, 1), "b": round(used.b, 5)}
 
         return {"a": round(law.a, 1), "b": round(law.b, 5), "steps": len(learner.steps),

@@ -51,6 +51,7 @@ __all__ = [
     "WaypointPassed",
     "associate",
     "choose_target",
+    "describe_target",
     "excluded_passes",
     "gate_mm",
     "is_passed_mark",
@@ -357,6 +358,23 @@ def describe(mark: keys.SeenMark | None) -> str:
     return f"{mark.range_mm / 1000.0:.2f} m, {abs(deg):.0f}° {side}"
 
 
+def describe_target(target: keys.Target, sighting: keys.SeenMark | None,
+                    marks: Sequence[keys.SeenMark]) -> str:
+    """What a frame showed of ``target`` (:func:`describe` of its ``sighting``), and when it
+    has none while a mark of its colour is in view, why that mark is not taken: a remembered
+    target is recognised only once the turn brings its remembered place near the heading
+    (:func:`associate_remembered`); a locked one only within the gate of its estimate."""
+    if sighting is not None or not any(m.colour == target.colour for m in marks):
+        return describe(sighting)
+    state = state_of(target)
+    if state is TrackState.REMEMBERED:
+        return (f"not taken yet: the {target.colour} in view is checked once the turn brings "
+                f"the remembered place within {REMEMBERED_CENTRE_DEG:g}° of the heading")
+    if state is TrackState.LOCKED:
+        return f"not in view (the {target.colour} in view is too far from its estimate)"
+    return f"not in view (the {target.colour} in view is another mark)"
+
+
 class SelectTarget(MarknavBehaviour):
     """Make the waypoint's mark the target: its colour, pass side and nearest visible mark.
 
@@ -458,7 +476,8 @@ class TargetSeen(MarknavBehaviour):
             self.feedback_message = "no target selected"
             return Status.FAILURE
         if target.sighting is None:
-            self.feedback_message = f"{target.label} not seen yet"
+            self.feedback_message = (f"{target.label} remembered, not seen again yet"
+                                     if target.remembered else f"{target.label} not seen yet")
             return Status.FAILURE
         age = keys.unseen_s(target.sighting, self.read(keys.FRAME), self.now())
         if age > self.lost_after_s:

@@ -17,6 +17,10 @@ versions) once at the top level, then a section per benchmark:
   (:func:`marknav.runs.benchmarks.suite.bench_tree`);
 - ``loop`` — a simulated mission with rendering and detection: cycle times, overruns, speed-up
   (:func:`marknav.runs.benchmarks.suite.bench_loop`);
+- ``recording`` (not part of ``all``: the ``record`` and ``foxglove`` extras) — the slalom's
+  MCAP recording: its size, and the loop's wall time, CPU time
+  and cycle time with ``--record`` and with ``--foxglove`` (a client subscribed) over without,
+  as ratios (:func:`marknav.runs.benchmarks.recording.bench_recording`);
 - ``safety`` — bump-to-stop latency, safety layer alone and through the real driver
   (:func:`marknav.runs.benchmarks.suite.bench_safety`);
 - ``render`` — ms per simulator frame against the 2 ms target
@@ -24,6 +28,8 @@ versions) once at the top level, then a section per benchmark:
 - ``mujoco`` (not part of ``all``: the ``mujoco`` extra) — MuJoCo's camera in frames per second
   at 320×240 and 640×480 with and without shadows, against the built-in renderer
   (:func:`marknav.runs.benchmarks.engines.bench_mujoco`);
+- ``groot2`` (not part of ``all``: a minute, and the ``groot2`` extra) — what Groot2 watching a
+  run costs the loop (:func:`marknav.runs.benchmarks.groot2.bench_groot2`);
 - ``dask`` (not part of ``all``: minutes, and the ``cluster`` extra) — an evaluation's
   throughput on a local Dask cluster of one worker, then two, cluster start excluded
   (:func:`marknav.runs.benchmarks.cluster.bench_dask`).
@@ -99,6 +105,13 @@ def _loop(quick: bool) -> dict[str, Any]:
     return bench_loop(max_time_s=5.0) if quick else bench_loop(max_time_s=60.0)
 
 
+def _recording(quick: bool) -> dict[str, Any]:
+    from marknav.runs.benchmarks.recording import bench_recording
+
+    return (bench_recording(max_time_s=5.0, repeats=1) if quick
+            else bench_recording(max_time_s=60.0, repeats=5))
+
+
 def _render(quick: bool) -> dict[str, Any]:
     from marknav.runs.benchmarks.render import bench_render
 
@@ -119,6 +132,15 @@ def _safety(quick: bool) -> dict[str, Any]:
     return bench_safety(n=200, e2e_n=50) if quick else bench_safety()
 
 
+def _groot2(quick: bool) -> dict[str, Any]:
+    from marknav.cli.groot2_option import groot2_address
+
+    groot2_address("1667")  # no extra: exit 2 naming it
+    from marknav.runs.benchmarks.groot2 import bench_groot2
+
+    return bench_groot2(max_time_s=10.0, repeats=1) if quick else bench_groot2()
+
+
 def _dask(quick: bool) -> dict[str, Any]:
     from marknav.runs.benchmarks.cluster import bench_dask
 
@@ -137,8 +159,14 @@ BENCHMARKS: dict[str, Benchmark] = {b.name: b for b in (
               _render),
     Benchmark("mujoco", "MuJoCo camera fps at 320×240 and 640×480, shadows on and off, against "
               "the built-in renderer (extra: mujoco; not in all)", _mujoco, in_all=False),
+    Benchmark("groot2", "what a Groot2 client polling at 100 Hz costs the run loop: loop and "
+              "server CPU, ticks while polled and not (extra: groot2; not in all)", _groot2,
+              in_all=False),
     Benchmark("dask", "evaluation throughput on a local Dask cluster, 1 then 2 workers, "
               "cluster start excluded (8 slalom runs each; not in all)", _dask, in_all=False),
+    Benchmark("recording", "the slalom's MCAP size; loop speed with --record and with "
+              "--foxglove over without (extras: record, foxglove; not in all)", _recording,
+              in_all=False),
 )}
 
 
@@ -188,7 +216,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
             f"{b.name}: {b.help}" for b in BENCHMARKS.values()) + "; all: every one but dask).",
     )
     p.add_argument("which", nargs="?", default="all", choices=[*BENCHMARKS, "all"],
-                   help="which benchmark (default all)")
+                   metavar="WHICH",
+                   help=f"which benchmark: {', '.join(BENCHMARKS)} or all (default all)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--quick", action="store_true",
                    help="small sizes: a smoke test, noisier figures")

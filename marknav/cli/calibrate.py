@@ -49,6 +49,7 @@ def print_fit(fit: PowerFit, *, as_json: bool, source: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from marknav.core.outputs import printable
     from marknav.vision.calibrate import fit_power_law, fit_table, plot_fit
 
     if args.sim == (args.table is not None):
@@ -75,4 +76,6 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         plot_fit(fit, args.plot, title=f"Range calibration: {source}")
     print_fit(fit, as_json=args.json, source=source)
+    if args.plot:  # after the JSON, on stderr: stdout stays one JSON document
+        print(f"# plot: {printable(str(args.plot))}", file=sys.stderr if args.json else sys.stdout)
     return 0

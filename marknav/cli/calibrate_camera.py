@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 
@@ -35,7 +36,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from marknav.core.outputs import check_output_file
+    from marknav.core.outputs import check_output_file, printable
     from marknav.vision.chessboard import (
         calibrate_images,
         parse_board,
@@ -52,8 +53,11 @@ def run(args: argparse.Namespace) -> int:
         plot_calibration(cal, args.plot)
     if args.opencv_yml:
         write_opencv_yml(cal, args.opencv_yml)
+    plotted = f"# plot: {printable(str(args.plot))}" if args.plot else None
     if args.json:
         print(json.dumps(cal.to_dict(), indent=2))
+        if plotted:  # stdout stays one JSON document
+            print(plotted, file=sys.stderr)
         return 0
     i = cal.intrinsics
     w, h = cal.image_size
@@ -68,6 +72,8 @@ def run(args: argparse.Namespace) -> int:
     print("# worst views: " + ", ".join(f"{p} {e:.3f} px" for e, p in worst))
     if args.opencv_yml:
         print(f"# OpenCV FileStorage written: {args.opencv_yml}")
+    if plotted:
+        print(plotted)
     print("# paste under camera: in your mission")
     print(cal.yaml_snippet())
     return 0

@@ -45,6 +45,28 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.set_defaults(func=run)
 
 
+#: The Create's top wheel speed (OI spec, Drive Direct: -500 to 500 mm/s).
+MAX_SPEED_MM_S = 500.0
+#: Slowest calibration speed (mm/s): Drive Direct takes whole mm/s, so below this the command
+#: is off by over 5 %, and a metre takes over 50 s.
+MIN_SPEED_MM_S = 20.0
+#: Shortest straight (mm): an encoder count is ≈ 0.44 mm (72 mm wheel, 508.8 counts a turn), so
+#: below this the count alone is off by over 4 %.
+MIN_DISTANCE_MM = 10.0
+#: Longest straight (mm): a room's free floor; a leg is bounded in time by its length.
+MAX_DISTANCE_MM = 10_000.0
+#: Largest turn (degrees): ten whole turns, far more than the wheel base needs.
+MAX_TURN_DEG = 3600.0
+#: Seeds are 64-bit: the simulator's random source takes them whole.
+MAX_SEED = 2**63 - 1
+
+
+def _bounded(value: float, option: str, low: float, high: float, unit: str) -> None:
+    if not low <= value <= high:  # also refuses nan
+        raise InputError(f"must be from {low:g} to {high:g} {unit}, got {value:g}",
+                         field=option)
+
+
 def _positive(value: float | None, option: str) -> None:
     if value is not None and not (math.isfinite(value) and value > 0):
         raise InputError(f"must be a positive number, got {value}", field=option)
@@ -72,11 +94,17 @@ def run(args: argparse.Namespace) -> int:
                           (args.measured_mm, "--measured-mm"),
                           (args.measured_deg, "--measured-deg")):
         _positive(value, option)
-    if args.speed_mm_s > 500:
-        raise InputError(f"the Create's wheels reach 500 mm/s at most, got {args.speed_mm_s}",
-                         field="--speed-mm-s")
+    if args.speed_mm_s > MAX_SPEED_MM_S:
+        raise InputError(f"the Create's wheels reach {MAX_SPEED_MM_S:g} mm/s at most, got "
+                         f"{args.speed_mm_s}", field="--speed-mm-s")
+    _bounded(args.speed_mm_s, "--speed-mm-s", MIN_SPEED_MM_S, MAX_SPEED_MM_S, "mm/s")
+    _bounded(args.distance_mm, "--distance-mm", MIN_DISTANCE_MM, MAX_DISTANCE_MM, "mm")
     if not (math.isfinite(args.turn_deg) and args.turn_deg >= 0):
         raise InputError(f"must be 0 or positive, got {args.turn_deg}", field="--turn-deg")
+    _bounded(args.turn_deg, "--turn-deg", 0.0, MAX_TURN_DEG, "degrees")
+    if not 0 <= args.seed <= MAX_SEED:
+        raise InputError(f"must be from 0 to {MAX_SEED} (seeds are 64-bit), got {args.seed}",
+                         field="--seed")
     if args.robot != "sim" and not sys.stdin.isatty():
         for value, option, needed in ((args.measured_mm, "--measured-mm", True),
                                       (args.measured_deg, "--measured-deg", args.turn_deg > 0)):
@@ -174,9 +202,9 @@ def _environment(args: argparse.Namespace, mission: Any) -> tuple[Any, Any]:
         driver.connect()
         return DriverEnvironment(driver), None
     from marknav.runs.loop.sim_environment import SimEnvironment
-    from marknav.sim import world as worldmod
+    from marknav.sim.world.schema import World, load_world
 
-    world = worldmod.load_world(args.world) if args.world is not None else worldmod.World()
+    world = load_world(args.world) if args.world is not None else World()
     env = SimEnvironment(
         world, mission.palette(), model=mission.robot.model, seed=args.seed,
         robot_radius_mm=mission.robot.radius_mm,

@@ -45,6 +45,7 @@ def run(args: argparse.Namespace) -> int:
     from marknav.missions.mission_detector import mission_detector
     from marknav.vision.annotate import annotate
     from marknav.vision.detect import Detector
+    from marknav.vision.imagefile import check_image_file
     from marknav.vision.palette import DEFAULT_PALETTE, Palette
     from marknav.vision.sources import read_image
 
@@ -57,7 +58,10 @@ def run(args: argparse.Namespace) -> int:
         mission = load_mission(args.mission)
         detector = mission_detector(mission)
         palette = detector.palette
-    images = [(name, read_image(name)) for name in args.images]  # all readable, or exit 2
+    for name in args.images:  # all readable, or exit 2 before any output
+        check_image_file(name)
+    # Decoded one at a time: never every image's pixels at once.
+    images = ((name, read_image(name)) for name in args.images)
     if args.annotate is not None:
         try:
             args.annotate.mkdir(parents=True, exist_ok=True)

@@ -14,7 +14,7 @@ from marknav.cli.validate import set_item
 from marknav.core.errors import EXIT_INTERRUPTED, InputError, MissionFailed
 
 if TYPE_CHECKING:
-    from marknav.runs.evaluation.evaluate import Evaluation
+    from marknav.runs.evaluation.evaluate import Evaluation, SeedResult
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -55,6 +55,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                    help="simulator engine (default: the mission's sim.engine, else builtin); "
                         "mujoco needs the 'mujoco' extra and the system package libosmesa6")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
+    p.add_argument("--record-failures", metavar="DIR", type=Path,
+                   help="run each failing seed again with its MCAP recording in "
+                        "DIR/seed-N/run.mcap (extra: record; 'marknav view' opens it)")
     p.add_argument("--accuracy", action="store_true",
                    help="measure position accuracy against ground truth (paper Fig. 13)")
     p.add_argument("--frames", type=int, default=100, metavar="N",
@@ -95,6 +98,7 @@ def run(args: argparse.Namespace) -> int:
         args.mission = mission_path(args.mission)
 
     parse_overrides(args.overrides)  # a malformed --set: exit 2 before anything runs
+    _check_record_folder(args.record_failures)
     if args.dask is not None and args.jobs != 1:
         raise InputError("--jobs is for local processes; with --dask the cluster's workers "
                          "run the evaluation", field="--jobs")
@@ -125,10 +129,46 @@ def run(args: argparse.Namespace) -> int:
     finally:
         progress.finish()
     _print(ev, as_json=args.json)
+    _record(ev, args.record_failures)
     if not ev.passed:
         raise MissionFailed(f"success rate {ev.success_rate:.1%} ({ev.successes}/{ev.runs}) is "
                             f"under --min-success {ev.min_success:.1%}")
     return 0
+
+
+def _check_record_folder(folder: Path | None) -> None:
+    """--record-failures DIR: the MCAP writer is installed and DIR is (or can be) a folder."""
+    from marknav.core.outputs import printable
+
+    if folder is None:
+        return
+    try:
+        import mcap_ros2  # noqa: F401
+    except ImportError:
+        raise InputError("needs the MCAP writer, which is not installed: pip install "
+                         "'marknav[record]'", field="--record-failures") from None
+    if folder.exists() and not folder.is_dir():
+        raise InputError("is not a folder", file=str(folder), field="--record-failures")
+    if not folder.parent.is_dir():
+        raise InputError(f"the folder {printable(str(folder.parent))} does not exist",
+                         file=str(folder), field="--record-failures")
+    folder.mkdir(exist_ok=True)
+
+
+def _record(ev: Evaluation, folder: Path | None) -> None:
+    """--record-failures DIR: the failing seeds again, recorded."""
+    from marknav.core.outputs import printable
+    from marknav.runs.evaluation.evaluate import record_failures
+
+    if folder is None or not ev.failures:
+        return
+    def said(failure: SeedResult, path: Path, again: SeedResult) -> None:
+        same = "" if again.outcome == failure.outcome else (
+            f" (this time {again.outcome}: {again.reason})")
+        print(f"recording of seed {failure.seed}: {printable(str(path))}{same}",
+              file=sys.stderr)
+
+    record_failures(ev, folder, on_recorded=said)
 
 
 def _print(ev: Evaluation, *, as_json: bool) -> None:

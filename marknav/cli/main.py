@@ -35,6 +35,7 @@ from marknav.cli import (
     schema,
     serve_camera,
     serve_robot,
+    serve_tree,
     sim_robot,
     tree,
     tune,
@@ -44,11 +45,25 @@ from marknav.core.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_OK, Input
 
 log = logging.getLogger(__name__)
 
+#: The first line a newcomer needs, at the top of ``marknav --help``.
+START_HERE = ("Start here: 'marknav run slalom' drives the built-in slalom course in the "
+              "simulator, no hardware needed; 'marknav examples DIR' copies the example "
+              "missions out to edit; 'marknav COMMAND --help' tells more.")
+#: Where the documentation is (the package has no published site: it is built from the source).
+DOCS = ("Documentation: the MkDocs site in the source's docs/ folder (pip install "
+        "'marknav[docs]'; mkdocs serve), first tutorial 'Your first run in the simulator'; "
+        "exit codes: 0 success, 1 the mission failed, 2 bad input, 130 interrupted.")
+
+#: The arguments that name a mission, as (command or ``None`` for every command, argument
+#: name): each is a file or a built-in example's name (``slalom``), resolved to a file here
+#: before the command runs.
+MISSION_ARGUMENTS: tuple[tuple[str | None, str], ...] = ((None, "mission"), ("palette", "check"))
+
 #: The modules that each register one sub-command, in the order ``--help`` shows them.
 COMMANDS: tuple[ModuleType, ...] = (
     run, validate, tree, evaluate, replay, examples, tune, random_mission, bench, detect,
     palette, calibrate, calibrate_camera, calibrate_odometry, sim_robot, schema, serve_camera,
-    serve_robot, completion,
+    serve_robot, serve_tree, completion,
 )
 
 
@@ -70,7 +85,9 @@ def _global_options(parser: argparse.ArgumentParser, *, after_command: bool) -> 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="marknav",
-        description="Drive an iRobot Create past coloured circular marks with one camera.",
+        description=("Drive an iRobot Create past coloured circular marks with one camera. "
+                     f"{START_HERE}"),
+        epilog=DOCS,
     )
     _global_options(parser, after_command=False)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -192,6 +209,17 @@ def configure_logging(verbosity: int) -> None:
         (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbosity, 2)])
 
 
+def resolve_missions(args: argparse.Namespace) -> None:
+    """Every mission argument (:data:`MISSION_ARGUMENTS`) given as a built-in example's name
+    becomes that example's file; InputError for a name or path that is neither."""
+    from marknav.missions.examples import mission_path
+
+    for only, name in MISSION_ARGUMENTS:
+        value = getattr(args, name, None)
+        if (only is None or only == args.command) and isinstance(value, str):
+            setattr(args, name, mission_path(value))
+
+
 def main(argv: Sequence[str] | None = None, *, exiting: bool = False) -> int:
     """Run one command; ``exiting``: the process ends after it (the console entry point)."""
     from marknav.core import signals
@@ -215,6 +243,7 @@ def main(argv: Sequence[str] | None = None, *, exiting: bool = False) -> int:
 
 
 def _main(argv: Sequence[str] | None) -> int:
+    from marknav.cli.requirements import check_requirements
     from marknav.core.outputs import printable
 
     parser = build_parser()
@@ -224,6 +253,8 @@ def _main(argv: Sequence[str] | None) -> int:
         parser.print_help()
         return EXIT_BAD_INPUT
     try:
+        check_requirements(args)  # before anything runs: no wasted run, no empty run folder
+        resolve_missions(args)
         return int(args.func(args))
     except InputError as exc:  # control characters from the input are shown escaped
         text = "\n".join(printable(line) for line in str(exc).split("\n"))

@@ -8,6 +8,7 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from marknav.core.errors import InputError, MissionFailed
@@ -16,6 +17,13 @@ if TYPE_CHECKING:
     from marknav.vision.palette import Palette
     from marknav.vision.palette_teach import RoundMark
     from marknav.vision.sources import Image
+
+
+#: Two colours whose ranges meet with a margin under this (hue units, OpenCV's 0..179) get a
+#: warning: after white balance, daylight against a warm lamp still moves a printed colour's
+#: hue by a few units, so a 3-unit margin (a red next to an orange) is carried across by a
+#: change of light; 5 units leave room for that shift and the hue noise of a small mark.
+WARN_MARGIN_HUE = 5.0
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -53,29 +61,56 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                    help="hue units a range may reach past the hues its marks showed, where no "
                         "other colour and no other saturated surface of the pictures is "
                         "(default 12)")
+    p.add_argument("--annotate", metavar="DIR", type=Path,
+                   help="write into DIR each picture with the marks found outlined in the "
+                        "colour each was given, and hues.png: every colour's hue histogram "
+                        "with its range and the margins (needs matplotlib: the plot extra)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=run)
 
 
+#: Most frames taken from a camera: each is kept until the palette is fitted (a 1280×720 frame
+#: is 2.8 MB: 200 are 550 MB), and a few dozen views of the marks teach their colours.
+MAX_CAMERA_FRAMES = 200
+#: Longest wait between camera frames (s): time to move the marks or the light between two.
+MAX_INTERVAL_S = 600.0
+
+
 @dataclass
 class _Frame:
+    """A camera frame (kept: it cannot be taken again) or an image file, decoded each time it
+    is looked at: never every file's pixels at once (16 images whose headers claim 7000×7000
+    were 4.9 GB)."""
+
     name: str
-    image: Image
+    kept: Image | None = None
+
+    @property
+    def image(self) -> Image:
+        if self.kept is not None:
+            return self.kept
+        from marknav.vision.imagefile import read_image
+
+        return read_image(self.name)
 
 
 def _frames(args: argparse.Namespace) -> list[_Frame]:
-    from marknav.vision.imagefile import read_image
+    from marknav.vision.imagefile import check_image_file
 
     if args.camera is None:
         if not args.images:
             raise InputError("give IMAGE files or --camera SRC")
-        return [_Frame(name, read_image(name)) for name in args.images]  # all readable, or 2
+        for name in args.images:  # all readable, or exit 2 before any work
+            check_image_file(name)
+        return [_Frame(name) for name in args.images]
     if args.images:
         raise InputError("give IMAGE files or --camera, not both", field="--camera")
-    if args.frames < 1:
-        raise InputError(f"must be at least 1, got {args.frames}", field="--frames")
-    if not (math.isfinite(args.interval) and args.interval >= 0):
-        raise InputError(f"must be ≥ 0 seconds, got {args.interval}", field="--interval")
+    if not 1 <= args.frames <= MAX_CAMERA_FRAMES:
+        raise InputError(f"must be from 1 to {MAX_CAMERA_FRAMES}, got {args.frames}",
+                         field="--frames")
+    if not 0 <= args.interval <= MAX_INTERVAL_S:  # also refuses nan
+        raise InputError(f"must be from 0 to {MAX_INTERVAL_S:g} seconds, got {args.interval:g}",
+                         field="--interval")
     from marknav.vision.sources import open_source
 
     source = open_source(args.camera)
@@ -123,16 +158,8 @@ def _detector_agreement(frames: Sequence[_Frame], marks_per_frame: Sequence[Sequ
 
 
 def run(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    from marknav.vision.palette_teach import (
-        check_palette,
-        find_round_marks,
-        parse_colours,
-        propose_palette,
-        scene_hues,
-        yaml_block,
-    )
+    from marknav.core.outputs import printable
+    from marknav.vision.palette_teach import check_palette, find_round_marks, parse_colours
 
     if args.colours is None and args.check is None:
         raise InputError("say which colours to teach (--colours red,green,blue) or which "
@@ -159,34 +186,17 @@ def run(args: argparse.Namespace) -> int:
     for fr, ms in zip(frames, found, strict=True):
         out.append(f"{fr.name}: {len(ms)} round saturated mark{'s' if len(ms) != 1 else ''}")
     exit_code = 0
+    #: what --annotate draws: each mark's colour, the palette, its margins, whose it is
+    pictures: tuple[Any, ...] | None = None
     if requests is not None:
-        try:
-            clutter = np.mean([scene_hues(fr.image, ms)
-                               for fr, ms in zip(frames, found, strict=True)], axis=0)
-            proposal = propose_palette(marks, requests, max_margin=args.max_margin,
-                                       clutter=clutter)
-        except ValueError as exc:
-            raise InputError(f"{exc} (photograph every colour; marks must be round, saturated "
-                             "and at least 5 px in radius)", field="--colours") from None
-        labels = _split(list(proposal.labels), found)
-        for entry, names in zip(result["images"], labels, strict=True):
-            for row, name in zip(entry["marks"], names, strict=True):
-                row["colour"] = name
-        agreement = _detector_agreement(frames, found, labels, proposal.palette())
-        result.update(
-            colours=[_colour_dict(c) for c in proposal.colours],
-            gaps=[_gap_dict(g) for g in proposal.gaps],
-            warnings=list(proposal.warnings), detector=agreement,
-            yaml=yaml_block(proposal))
-        out += _marks_text(frames, found, labels)
-        out += _proposal_text(proposal, agreement)
-        out.append("# paste into your mission (replacing marks.colours):")
-        out.append(yaml_block(proposal))
+        pictures = _teach(args, requests, frames, found, result, out)
     if mission is not None:
         palette = mission.palette()
         checks, given = check_palette(marks, palette)
         labels = _split(given, found)
         agreement = _detector_agreement(frames, found, labels, palette)
+        if pictures is None:
+            pictures = (labels, palette, [], f"{args.check}'s")
         bad = sum(c.in_other + c.in_none for c in checks)
         result["check"] = {"mission": args.check, "colours": [vars(c) | {
             "other_names": list(c.other_names)} for c in checks], "detector": agreement,
@@ -194,6 +204,10 @@ def run(args: argparse.Namespace) -> int:
         out += _check_text(args.check, checks, agreement)
         if bad:
             exit_code = 1
+    if args.annotate is not None and pictures is not None:
+        written = write_pictures(args.annotate, frames, found, *pictures)
+        out.append("pictures: " + "  ".join(printable(str(p)) for p in written))
+        result["pictures"] = [str(p) for p in written]
     if args.json:
         print(json.dumps(result, indent=2))
     else:
@@ -203,6 +217,70 @@ def run(args: argparse.Namespace) -> int:
                             f"({sum(c.in_other for c in checks)} in another colour's range, "
                             f"{sum(c.in_none for c in checks)} in none)")
     return 0
+
+
+def _teach(args: argparse.Namespace, requests: Any, frames: Sequence[_Frame],
+           found: Sequence[Sequence[Any]], result: dict[str, Any],
+           out: list[str]) -> tuple[Any, ...]:
+    """``--colours``: propose the palette; its figures into ``result`` and its lines into
+    ``out``; what ``--annotate`` draws of it."""
+    import numpy as np
+
+    from marknav.vision.palette_pictures import margins_of
+    from marknav.vision.palette_teach import propose_palette, scene_hues, yaml_block
+
+    marks = [m for ms in found for m in ms]
+    try:
+        clutter = np.mean([scene_hues(fr.image, ms)
+                           for fr, ms in zip(frames, found, strict=True)], axis=0)
+        proposal = propose_palette(marks, requests, max_margin=args.max_margin,
+                                   clutter=clutter)
+    except ValueError as exc:
+        raise InputError(f"{exc} (photograph every colour; marks must be round, saturated "
+                         "and at least 5 px in radius)", field="--colours") from None
+    labels = _split(list(proposal.labels), found)
+    for entry, names in zip(result["images"], labels, strict=True):
+        for row, name in zip(entry["marks"], names, strict=True):
+            row["colour"] = name
+    agreement = _detector_agreement(frames, found, labels, proposal.palette())
+    result.update(
+        colours=[_colour_dict(c) for c in proposal.colours],
+        gaps=[_gap_dict(g) for g in proposal.gaps],
+        warnings=[*proposal.warnings, *narrow_margins(proposal)], detector=agreement,
+        yaml=yaml_block(proposal))
+    out += _marks_text(frames, found, labels)
+    out += _proposal_text(proposal, agreement)
+    out.append("# paste into your mission (replacing marks.colours):")
+    out.append(yaml_block(proposal))
+    return (labels, proposal.palette(), margins_of(proposal.gaps), "taught")
+
+
+def write_pictures(folder: Path, frames: Sequence[_Frame], found: Sequence[Sequence[Any]],
+                   labels: Sequence[Sequence[str]], palette: Any,
+                   margins: Sequence[tuple[str, str, float, float]], whose: str) -> list[Path]:
+    """``--annotate``: each frame with its marks outlined, and the hue histogram; the files."""
+    import cv2
+
+    from marknav.core.outputs import safe_file_name
+    from marknav.vision.palette_pictures import hue_histogram, outline_marks
+
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create the folder: {exc.strerror or exc}",
+                         file=str(folder)) from None
+    written = []
+    for k, (fr, ms, names) in enumerate(zip(frames, found, labels, strict=True)):
+        stem = safe_file_name(Path(fr.name).stem, default="frame")
+        out = folder / f"{k:02d}-{stem}.palette.png"
+        if not cv2.imwrite(str(out), outline_marks(fr.image, ms, names, palette)):
+            raise InputError("cannot write the picture", file=str(out))
+        written.append(out)
+    hist = folder / "hues.png"
+    hue_histogram([m for ms in found for m in ms], [n for ns in labels for n in ns], palette,
+                  hist, title=f"hue of the marks' pixels and the {whose} ranges", margins=margins)
+    written.append(hist)
+    return written
 
 
 def _split(labels: list[str], found: Sequence[Sequence[Any]]) -> list[list[str]]:
@@ -244,6 +322,22 @@ def _marks_text(frames: Sequence[_Frame], found: Sequence[Sequence[RoundMark]],
     return out
 
 
+def narrow_margins(proposal: Any) -> list[str]:
+    """Warnings for colours whose ranges meet with a margin under :data:`WARN_MARGIN_HUE`
+    that the proposal itself did not warn about."""
+    out = []
+    for g in proposal.gaps:
+        pair = f"{g.below} and {g.above}"
+        if g.boundary is None or g.margin >= WARN_MARGIN_HUE or any(
+                w.startswith(pair) for w in proposal.warnings):
+            continue
+        out.append(f"{pair} meet with a margin of only {g.margin:.1f} hue units (split at "
+                   f"{g.boundary}|{(g.boundary + 1) % 180}): a change of light will carry one "
+                   "into the other (choose marks of more different colours, or teach them "
+                   "under the light the robot will see)")
+    return out
+
+
 def _proposal_text(proposal: Any, agreement: dict[str, Any]) -> list[str]:
     out = ["colours (hue in OpenCV units 0..179; a range may wrap, 170..10):"]
     for c in proposal.colours:
@@ -265,7 +359,7 @@ def _proposal_text(proposal: Any, agreement: dict[str, Any]) -> list[str]:
         share = f", pixels share {g.pixel_overlap:.0f} units" if g.pixel_overlap > 0 else ""
         out.append(f"  {g.below + ' | ' + g.above:<18} {where:<28} margins "
                    f"{g.margin_below:5.1f} / {g.margin_above:5.1f}{share}")
-    for w in proposal.warnings:
+    for w in [*proposal.warnings, *narrow_margins(proposal)]:
         out.append(f"warning: {w}")
     out.append(f"the detector with this palette: {agreement['right']} of {agreement['marks']} "
                f"marks found with their colour, {agreement['wrong']} with another, "

@@ -32,6 +32,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                    help="print every status change (time, tick, node, old -> new) and exit")
     p.add_argument("--plot", metavar="FILE.png", type=Path,
                    help="draw the top-down picture of the run from the log")
+    p.add_argument("--btlog", metavar="FILE.btlog", type=Path,
+                   help="write the run's tree history as Groot2's replay file "
+                        "(BehaviorTree.CPP 4's .btlog: every status change at its run time)")
     p.add_argument("--tree", default="auto", choices=("auto", "ascii", "unicode"),
                    help="tree symbols (default auto)")
     p.set_defaults(func=replay)
@@ -40,16 +43,15 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "view",
         help="open a recorded run in the Rerun viewer (extra: viewer)",
         description=(
-            "Open RUN in the Rerun viewer: a recording (.rrd from 'marknav run --record'), or a "
-            "run folder / run log, which is converted to a recording first (camera images only "
-            "where the run saved frames with --frames). --save FILE.rrd writes the recording "
-            "without opening a viewer. marknav sets RERUN_ANALYTICS=0 for the viewer it starts "
-            "(Rerun otherwise sends anonymous usage data)."
+            "Open RUN in the Rerun viewer: a recording (FILE.mcap from 'marknav run --record', "
+            "which Rerun reads itself), a folder holding one (the run's folder, a rosbag2 "
+            "folder), or else a run folder / run log, which is streamed to the viewer (camera "
+            "images only where the run saved frames with --frames). marknav sets "
+            "RERUN_ANALYTICS=0 for the viewer it starts (Rerun otherwise sends anonymous usage "
+            "data)."
         ),
     )
-    v.add_argument("run", metavar="RUN", help="FILE.rrd, run folder or run log")
-    v.add_argument("--save", metavar="FILE.rrd", type=Path,
-                   help="write the recording here instead of opening the viewer")
+    v.add_argument("run", metavar="RUN", help="FILE.mcap, run folder or run log")
     v.set_defaults(func=view)
 
 
@@ -66,10 +68,19 @@ def replay(args: argparse.Namespace) -> int:
     from marknav.runs.records.runlog import Replay, read_log
     from marknav.runs.views.display import resolve_style
 
+    if args.btlog is not None:
+        from marknav.core.outputs import check_output_file
+
+        if args.btlog.suffix != ".btlog":
+            raise InputError("Groot2 opens replay files named *.btlog", field="--btlog")
+        check_output_file(args.btlog, option="--btlog")
     records = read_log(args.run)
     run = Replay(records)
     style = resolve_style(args.tree, sys.stdout)
     did = False
+    if args.btlog is not None:
+        _write_btlog(args.run, records, args.btlog)
+        did = True
     if args.plot is not None:
         from marknav.sim.plot import plot_log
 
@@ -92,6 +103,19 @@ def replay(args: argparse.Namespace) -> int:
     return 0
 
 
+def _write_btlog(run: str, records: list[dict[str, object]], path: Path) -> None:
+    from marknav.runs.records import btlog
+    from marknav.runs.records.runlog import resolve_log
+
+    log = btlog.from_run_log(records, log_mtime_s=resolve_log(run).stat().st_mtime)
+    try:
+        btlog.write(path, log)
+    except OSError as exc:
+        raise InputError(f"cannot write: {exc}", file=str(path)) from None
+    print(f"btlog: {path} ({len(log.transitions)} status changes; open it in Groot2's Log "
+          "Replay)")
+
+
 def _print_changes(run: object) -> None:
     from marknav.runs.records.runlog import Replay
     from marknav.runs.records.tree_state import TreeState
@@ -111,7 +135,7 @@ def _interactive(run: object, style: str) -> None:
     from rich.console import Console
 
     from marknav.runs.records.runlog import Replay
-    from marknav.runs.views.display import render
+    from marknav.runs.views.display import render, tree_rows
 
     assert isinstance(run, Replay)
     console = Console()
@@ -119,9 +143,10 @@ def _interactive(run: object, style: str) -> None:
     last = len(run) - 1
     while True:
         console.clear()
+        size = console.size  # one row more than the live view's: the prompt
         console.print(render(run.state_at(k), run.ticks[k].get("panel", {}), style=style,
-                             max_rows=max(8, console.size.height - 10),
-                             title=f"replay: tick {k}/{last}"))
+                             max_rows=tree_rows(size.height - 1, size.width, style),
+                             title=f"replay: tick {k}/{last}", width=size.width))
         try:
             cmd = console.input("[dim]Enter next tick · c next change · b back · "
                                 "j T jump to time · e end · q quit[/] ").strip()
@@ -148,29 +173,35 @@ def view(args: argparse.Namespace) -> int:
     from marknav.runs.views.viewer import require_display, require_rerun
 
     require_rerun("view")  # also sets RERUN_ANALYTICS=0 unless the user chose otherwise
-    path = Path(args.run)
-    if path.suffix == ".rrd":
-        check_regular_file(path, what="a Rerun recording (.rrd)")
-        if args.save is not None:
-            shutil.copyfile(path, args.save)
-            print(f"recording: {args.save}")
-            return 0
+    recording = _recording_of(Path(args.run))
+    if recording is not None:
         require_display("view")
-        return _open_viewer(path)
+        return _open_viewer(recording)
     from marknav.runs.records.runlog import read_log, resolve_log
     from marknav.runs.views.viewer import log_to_recording
 
-    log_path = resolve_log(path)
+    log_path = resolve_log(Path(args.run))
     records = read_log(log_path)
-    if args.save is not None:
-        sink = log_to_recording(log_path, records, path=args.save)
-        sink.close()
-        print(f"recording: {args.save} ({sink.ticks} ticks, {sink.frames} frames)")
-        return 0
     require_display("view")
     sink = log_to_recording(log_path, records, spawn=True)
     sink.close()
     return 0
+
+
+def _recording_of(path: Path) -> Path | None:
+    """The MCAP recording RUN names: the file itself, or the one in the folder (None: none)."""
+    import stat
+
+    from marknav.core.inputfile import stat_path
+
+    if path.suffix == ".mcap":
+        check_regular_file(path, what="a recording (.mcap)")
+        return path
+    st = stat_path(path, field="RUN")
+    if st is not None and stat.S_ISDIR(st.st_mode):
+        found = sorted(path.glob("*.mcap"))
+        return found[0] if found else None
+    return None
 
 
 def _open_viewer(path: Path) -> int:

@@ -30,8 +30,10 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
             "changes. The run report and the complete run log (JSON Lines: every tick's status "
             "changes, poses, detections, wheel commands, safety events; 'marknav replay' reads "
             "it) are written as the run goes, also when it fails or is interrupted (default "
-            "folder: runs/NAME-TIME/). --viewer/--record need the 'viewer' extra (Rerun); "
-            "marknav turns Rerun's anonymous usage analytics off (RERUN_ANALYTICS=0)."
+            "folder: runs/NAME-TIME/). --record saves the run as ROS 2 messages in MCAP (the "
+            "'record' extra), --foxglove serves them live (the 'foxglove' extra); --viewer "
+            "needs the 'viewer' extra (Rerun); marknav turns Rerun's anonymous usage "
+            "analytics off (RERUN_ANALYTICS=0)."
         ),
     )
     p.add_argument("mission", metavar="MISSION",
@@ -58,27 +60,100 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--frames", type=float, metavar="HZ",
                    help="also save camera frames as JPEG files beside the run log, at most HZ "
                         "per second (e.g. 2), so a real-robot run can be looked at afterwards; "
-                        "with --viewer/--record, also the camera image rate there (default "
-                        "5 per second of run time, JPEG-compressed)")
+                        "with --viewer, also the camera image rate there (default 5 per "
+                        "second of run time, JPEG-compressed)")
     p.add_argument("--viewer", action="store_true",
                    help="stream the run live to the Rerun viewer: camera with detections, "
                         "top-down map, range and wheel plots, tree status (extra: viewer)")
-    p.add_argument("--record", metavar="FILE.rrd", type=Path,
-                   help="save a Rerun recording of the run without opening a viewer "
-                        "('marknav view FILE.rrd' opens it; extra: viewer)")
     p.add_argument("--engine", choices=("builtin", "mujoco"),
                    help="simulator engine (default: the mission's sim.engine, else builtin): "
                         "mujoco runs MuJoCo's physics and renderer (the 'mujoco' extra and the "
                         "system package libosmesa6)")
     p.add_argument("--seed", type=int, help="simulator seed (default: the mission's sim.seed)")
-    p.add_argument("--realtime", action="store_true",
-                   help="pace the simulator at wall-clock speed")
+    pace = p.add_mutually_exclusive_group()
+    pace.add_argument("--realtime", action="store_const", const=True, dest="realtime",
+                      help="pace the simulator at wall-clock speed (the default when the live "
+                           "view is on a terminal)")
+    pace.add_argument("--fast", action="store_const", const=False, dest="realtime",
+                      help="run the simulator as fast as it goes, also under the live view "
+                           "(the default when the output is not a terminal)")
     p.add_argument("--max-time", type=float, metavar="SECONDS",
                    help="give up after this much mission time (default 60 s + 40 s per "
                         "waypoint)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", dest="overrides",
                    type=set_item, help=SET_HELP + "; recorded in the report")
+    _recording_options(p)
+    # -- Groot2's live monitor ---------------------------------------------------------------
+    from marknav.cli.groot2_option import GROOT2_HELP
+
+    p.add_argument("--groot2", nargs="?", const="1667", metavar="[HOST:]PORT", help=GROOT2_HELP)
+    # ------------------------------------------------------------------------------------------
     p.set_defaults(func=run)
+
+
+# -- the recording (MCAP, ROS 2 messages) and the live view in Foxglove ----------------------
+
+def _recording_options(p: argparse.ArgumentParser) -> None:
+    from marknav.runs.records.mcap_recording import JPEG_QUALITY, RECORD_HZ
+    from marknav.runs.views.foxglove_live import DEFAULT_PORT
+
+    g = p.add_argument_group("recording and live view (ROS 2 messages: Foxglove, Rerun, ros2 bag)")
+    g.add_argument("--record", nargs="?", const="", metavar="FILE.mcap",
+                   help="save the run as ROS 2 messages in an MCAP file, with the rosbag2 "
+                        "metadata.yaml beside it (default file: run.mcap in the run's folder; "
+                        "'marknav view' opens it in Rerun; extra: record)")
+    g.add_argument("--record-hz", type=float, metavar="HZ",
+                   help=f"camera images per second of run time in the recording (default "
+                        f"{RECORD_HZ:g})")
+    g.add_argument("--record-quality", type=int, metavar="0..100",
+                   help=f"JPEG quality of the recorded images (default {JPEG_QUALITY})")
+    g.add_argument("--foxglove", nargs="?", const=DEFAULT_PORT, type=int, metavar="PORT",
+                   help=f"serve the recording's channels live to Foxglove on 127.0.0.1:PORT "
+                        f"(default {DEFAULT_PORT}; 0: a free port) while the mission runs "
+                        "(extra: foxglove)")
+
+
+def _check_recording(args: argparse.Namespace) -> None:
+    """The recording options make sense and their libraries are installed (exit 2 if not)."""
+    if args.record_hz is not None and not args.record_hz > 0:
+        raise InputError(f"must be positive, got {args.record_hz}", field="--record-hz")
+    from marknav.runs.records.mcap_recording import JPEG_QUALITY_MAX
+
+    if args.record_quality is not None and not 0 <= args.record_quality <= JPEG_QUALITY_MAX:
+        raise InputError(f"must be in 0..100, got {args.record_quality}",
+                         field="--record-quality")
+    if args.foxglove is not None:
+        from marknav.runs.views.foxglove_live import PORT_MAX, require_foxglove
+
+        if not 0 <= args.foxglove <= PORT_MAX:
+            raise InputError(f"must be a port in 0..{PORT_MAX}, got {args.foxglove}",
+                             field="--foxglove")
+        require_foxglove("--foxglove")
+    if args.record is not None:
+        try:
+            import mcap.writer  # noqa: F401
+            import mcap_ros2  # noqa: F401
+        except ImportError:
+            raise InputError("needs the MCAP writer, which is not installed: pip install "
+                             "'marknav[record]'", field="--record") from None
+        if args.record and not args.record.endswith(".mcap"):
+            raise InputError("the recording's file name must end in .mcap",
+                             file=args.record, field="--record")
+
+
+def _record_path(args: argparse.Namespace, report_path: Path) -> Path | None:
+    """Where the recording goes: the file named, or run.mcap beside the report."""
+    from marknav.core.outputs import check_output_file
+    from marknav.runs.records.mcap_recording import recording_folder_problem
+
+    if args.record is None:
+        return None
+    path = Path(args.record) if args.record else report_path.with_name("run.mcap")
+    check_output_file(path, option="--record")
+    problem = recording_folder_problem(path)
+    if problem is not None:
+        raise InputError(problem, file=str(path), field="--record")
+    return path
 
 
 def check_outputs(args: argparse.Namespace) -> None:
@@ -86,7 +161,7 @@ def check_outputs(args: argparse.Namespace) -> None:
     from marknav.core.outputs import check_output_file
 
     for option, path in (("--report", args.report), ("--events", args.events),
-                         ("--plot", args.plot), ("--record", args.record)):
+                         ("--plot", args.plot)):
         if path is not None:
             check_output_file(path, option=option)
     if args.plot is not None and args.robot != "sim":
@@ -95,6 +170,8 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from marknav.cli.groot2_option import groot2_address
+    from marknav.cli.requirements import MUJOCO, require
     from marknav.core.errors import InputErrors
     from marknav.core.outputs import printable
     from marknav.missions.examples import mission_path
@@ -110,13 +187,14 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"must be ≥ 0, got {args.seed}", field="--seed")
     if args.frames is not None and not args.frames > 0:
         raise InputError(f"must be positive, got {args.frames}", field="--frames")
-    if args.viewer or args.record is not None:
+    if args.viewer:
         from marknav.runs.views.viewer import require_display, require_rerun
 
-        require_rerun("--viewer" if args.viewer else "--record")
-        if args.viewer:
-            require_display("--viewer")
+        require_rerun("--viewer")
+        require_display("--viewer")
+    _check_recording(args)
     check_outputs(args)
+    args.groot2 = groot2_address(args.groot2)  # (host, port) or None
     overrides = parse_overrides(args.overrides)
     args.mission = mission_path(args.mission)
     world = None if args.world in (None, "generate", "random") else args.world
@@ -148,6 +226,8 @@ def run(args: argparse.Namespace) -> int:
         problems = loaded_mission_problems(mission, overrides, world=world)
         if problems:
             raise InputErrors(problems)
+        if args.engine is None and mission.sim is not None and mission.sim.engine == "mujoco":
+            require(MUJOCO, "sim.engine")  # --engine was checked with the other options
         req = request()
         stage = "while preparing the detector"
         with slow_status(PREPARING, sys.stderr):
@@ -193,8 +273,8 @@ def run(args: argparse.Namespace) -> int:
               f"paste under camera: in the mission:\n  {law['yaml']}")
     if req.written:
         line = written()
-        if args.record is not None and args.record.exists():
-            line += f"  recording: {printable(str(args.record))}"
+        if req.record_path is not None and req.record_path.exists():
+            line += f"  recording: {printable(str(req.record_path))}"
         print(line)
     if req.write_errors:
         write_errors()
@@ -221,5 +301,8 @@ def _request(args: argparse.Namespace, mission: Mission) -> RunRequest:
         tree_style=args.tree, out=sys.stdout, report_path=report_path,
         events_path=events_path, plot_path=args.plot, seed=args.seed,
         realtime=args.realtime, max_time_s=args.max_time, frames_hz=args.frames,
-        viewer=args.viewer, record_path=args.record, engine=args.engine,
+        viewer=args.viewer, record_path=_record_path(args, report_path), engine=args.engine,
+        record_hz=args.record_hz, record_quality=args.record_quality,
+        foxglove_port=args.foxglove,
+        groot2=args.groot2,
     )

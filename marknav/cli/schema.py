@@ -7,7 +7,7 @@ then complete keys, show each key's description and flag wrong values while typi
 2020-12) plus the tree node types registered at the time — built-ins, installed packages'
 ``marknav.nodes`` entry points and any ``--plugin`` modules — with each type's parameters.
 ``--world`` prints the schema of simulator world files instead, generated from the
-:class:`marknav.sim.world.World` model (:mod:`marknav.sim.world_schema`).
+:class:`marknav.sim.world.World` model (:mod:`marknav.sim.world.json_schema`).
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
     if args.world:
         if args.plugin:
             raise InputError("does not apply with --world", field="--plugin")
-        from marknav.sim.world_schema import world_json_schema
+        from marknav.sim.world.json_schema import world_json_schema
 
         schema = world_json_schema()
     else:

@@ -52,6 +52,11 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.set_defaults(func=run)
 
 
+#: Highest frame rate served (frames/s): past any USB camera's rate; an MJPEG client then
+#: spends its time decoding.
+MAX_FPS = 1000.0
+
+
 def _raise_interrupt(signum: int, frame: FrameType | None) -> None:
     raise KeyboardInterrupt
 
@@ -59,8 +64,14 @@ def _raise_interrupt(signum: int, frame: FrameType | None) -> None:
 def _check(args: argparse.Namespace) -> None:
     if not 0 <= args.port <= 65535:
         raise InputError(f"must be in 0..65535, got {args.port}", field="--port")
-    if args.fps is not None and not 0 < args.fps <= 1000:
-        raise InputError(f"must be in (0, 1000], got {args.fps:g}", field="--fps")
+    if args.fps is not None and not 0 < args.fps <= MAX_FPS:
+        raise InputError(f"must be in (0, {MAX_FPS:g}], got {args.fps:g}", field="--fps")
+    if args.fps is not None and args.fps * args.stall_timeout < 1:
+        # Frames further apart than the stall timeout: every client stream would end between
+        # two frames (and 1e-300 fps overflowed the capture thread's wait).
+        raise InputError(f"at {args.fps:g} fps a frame comes every {1 / args.fps:.3g} s, "
+                         f"longer than --stall-timeout {args.stall_timeout:g} s: give at "
+                         f"least {1 / args.stall_timeout:.3g} fps", field="--fps")
     if not 1 <= args.quality <= 100:
         raise InputError(f"must be in 1..100, got {args.quality}", field="--quality")
     if not 0 < args.stall_timeout <= 3600:

@@ -1,8 +1,10 @@
 """One signal policy for the whole life of a ``marknav`` process.
 
 :func:`install` (called first thing by the entry point, :mod:`marknav.__main__`, before the
-command line is even imported; again by :func:`marknav.cli.main.main`) routes SIGINT and SIGTERM
-to one handler:
+command line is even imported; again by :func:`marknav.cli.main.main`) routes every signal that
+would otherwise end the process at once (:data:`ENDING_SIGNALS`: SIGHUP — a closed terminal or a
+dropped SSH session —, SIGINT, SIGQUIT, SIGTERM, SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM, SIGPROF,
+SIGXCPU) to one handler, so each leaves the robot stopped and the report written:
 
 - The **first** signal raises :class:`Interrupted` (a ``KeyboardInterrupt``) in the main thread,
   wherever it is — importing, loading, connecting, in the control loop, plotting. The code on
@@ -18,6 +20,12 @@ to one handler:
   process itself with :func:`exit_process`: a signal then is noted, not raised, and the exit
   code becomes 130 — the interpreter's own teardown, during which Python handles no signal
   (a Ctrl-C there used to be ignored: exit 0), never runs.
+
+Every one of them exits 130 (the CLI's one "interrupted" code; the report, the event log and
+stderr name the signal). SIGPIPE and SIGXFSZ stay ignored, as Python sets them: a closed pipe or
+a file over the size limit is an ``OSError`` where it happens, not an end of the process.
+SIGKILL and SIGSTOP cannot be caught: after SIGKILL the Create keeps its last wheel command (see
+the safety explanation in the documentation for what stops it then).
 
 Library code that runs outside the CLI (tests, evaluation workers) gets the same policy for the
 duration of a run from :func:`interrupting`.
@@ -39,14 +47,21 @@ from typing import Any, NoReturn
 
 from marknav.core.errors import EXIT_INTERRUPTED
 
-__all__ = ["Interrupted", "deferred", "exit_process", "install", "installed", "interrupting",
-           "signalled", "uninstall"]
+__all__ = ["ENDING_SIGNALS", "Interrupted", "deferred", "exit_process", "install", "installed",
+           "interrupting", "signalled", "uninstall"]
 
-_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+#: The signals whose default action ends the process and that come from outside it (a terminal,
+#: ``kill``, a timer, a resource limit): the faults of a bad instruction or address (SIGSEGV,
+#: SIGBUS, SIGILL, SIGFPE, SIGABRT) cannot be handled in Python and are left to ``faulthandler``.
+ENDING_SIGNALS: tuple[signal.Signals, ...] = tuple(
+    getattr(signal, name) for name in ("SIGHUP", "SIGINT", "SIGQUIT", "SIGTERM", "SIGUSR1",
+                                       "SIGUSR2", "SIGALRM", "SIGVTALRM", "SIGPROF", "SIGXCPU")
+    if hasattr(signal, name))
+_SIGNALS = ENDING_SIGNALS
 
 
 class Interrupted(KeyboardInterrupt):
-    """SIGINT or SIGTERM arrived; ``str()`` is the signal's name."""
+    """One of :data:`ENDING_SIGNALS` arrived; ``str()`` is the signal's name."""
 
     def __init__(self, signame: str = "SIGINT") -> None:
         super().__init__(signame)
@@ -90,7 +105,7 @@ def _main_thread() -> bool:
 
 
 def install() -> bool:
-    """Route SIGINT and SIGTERM to the policy for the rest of the process (main thread only;
+    """Route :data:`ENDING_SIGNALS` to the policy for the rest of the process (main thread only;
     False elsewhere). Resets what an earlier :func:`install` noted."""
     if not _main_thread():
         return False

@@ -16,25 +16,37 @@ from __future__ import annotations
 
 import difflib
 import re
+import sys
 import types
 import typing
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Annotated, Any, TypeVar
 
 import yaml
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, Strict, ValidationError
 
-from marknav.core.errors import InputError, InputErrors
+from marknav.core.errors import InputError, InputErrors, MarknavError
 from marknav.core.inputfile import MAX_YAML_BYTES, check_no_control, read_text
 
 Loc = tuple[str | int, ...]
 M = TypeVar("M", bound=BaseModel)
 
+#: A number in a schema: an integer or a decimal in the file, never ``true`` or ``"30"`` (which
+#: pydantic's lax mode would read as 1 and 30: a quoted value is a mistake to show, not guess).
+Number = Annotated[float, Strict()]
+#: A whole number in a schema: ``5``, never ``5.0``, ``true`` or ``"5"``.
+Integer = Annotated[int, Strict()]
+
 #: Deepest nesting of mappings and sequences accepted (a mission needs about 12, a tree ~40).
 MAX_DEPTH = 100
 #: Most nodes a document may expand to, counting every alias as a copy of its anchor.
 MAX_NODES = 100_000
+#: Longest piece of a bad value quoted back in an error message (characters).
+_SHOWN_CHARS = 40
+#: YAML's names of its scalar tags, as an error message says them.
+_KINDS = {"int": "an integer", "float": "a number", "bool": "true or false",
+          "timestamp": "a date or time", "null": "null", "binary": "base64 data"}
 
 
 # A double-quoted scalar can spell control characters as escapes ("\e", "\0", "\x1b"): they
@@ -63,6 +75,27 @@ class _BoundedLoader(yaml.SafeLoader):
             return super().compose_node(parent, index)
         finally:
             self._depth -= 1
+
+    def construct_object(self, node: yaml.Node, deep: bool = False) -> Any:
+        """PyYAML's constructors raise plain Python errors for values they cannot build — a
+        ValueError for ``2023-02-29`` or an integer over Python's 4,300 digits, a KeyError for
+        ``!!bool maybe``, an IndexError for ``!!int ""``, a TypeError for ``!!timestamp abc``
+        — with no position: each becomes an input error at the value's own line."""
+        try:
+            return super().construct_object(node, deep)
+        except (yaml.YAMLError, MarknavError):
+            raise
+        except Exception as exc:  # any constructor failure is bad input
+            p = _mark(node)
+            value = node.value if isinstance(node, yaml.ScalarNode) else ""
+            shown = value if len(value) <= _SHOWN_CHARS else f"{value[:_SHOWN_CHARS]}…"
+            kind = node.tag.rsplit(":", 1)[-1]
+            why = "" if isinstance(exc, LookupError | TypeError | AttributeError) else str(exc)
+            if "limit" in why and kind == "int":  # Python's own bound on int("9" * 5000)
+                why = f"over {sys.get_int_max_str_digits():,} digits"
+            raise InputError(f"cannot read {shown!r} as {_KINDS.get(kind, kind)}"
+                             + (f" ({why})" if why else ""), file=self._path, line=p.line,
+                             column=p.column) from None
 
 
 @dataclass(frozen=True)
@@ -225,6 +258,27 @@ def _fields_at(model: type[BaseModel], loc: Loc) -> list[str]:
     return names
 
 
+#: pydantic's errors for a value that is not a number where a :data:`Number` or an
+#: :data:`Integer` belongs (strict mode).
+_STRICT_NUMBER_ERRORS = {"float_type", "int_type"}
+
+
+def _strict_number_message(msg: str, value: Any) -> str:
+    """Say what was written instead of a number: the YAML reader made it a string or a bool."""
+    if isinstance(value, bool):
+        return f"{msg}, not {str(value).lower()}"
+    if isinstance(value, str):
+        shown = value if len(value) <= _SHOWN_CHARS else f"{value[:_SHOWN_CHARS]}…"
+        try:
+            float(value)
+        except ValueError:
+            return f"{msg}, not the text {shown!r}"
+        return f"{msg}, not the text {shown!r} (write a number without quotes)"
+    if isinstance(value, float) and msg.endswith("integer"):
+        return f"{msg}, not {value:g}"
+    return msg
+
+
 def validation_errors(
     exc: ValidationError, doc: YamlDocument, model: type[BaseModel]
 ) -> InputErrors:
@@ -244,6 +298,8 @@ def validation_errors(
                 msg += f" (allowed: {', '.join(sorted(known))})"
         elif msg.startswith("Value error, "):
             msg = msg[len("Value error, "):]
+        elif err["type"] in _STRICT_NUMBER_ERRORS:
+            msg = _strict_number_message(msg, err.get("input"))
         pos = doc.position(loc, at_key=err["type"] == "extra_forbidden")
         errors.append(
             InputError(

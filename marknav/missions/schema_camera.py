@@ -21,10 +21,11 @@ from pydantic import (
     model_validator,
 )
 
+from marknav.core.yamlio import Integer, Number
 from marknav.missions.registry import model_problems
 from marknav.missions.schema_problems import known_key, problem_detail, raise_problems
 from marknav.sim.camera_model import SIM_FOCAL_PX, SIM_HEIGHT, SIM_WIDTH
-from marknav.vision.detect.shape import ShapeConfig
+from marknav.vision.detect import DetectorConfig
 
 __all__ = [
     "MAX_CAMERA_PIXELS",
@@ -54,7 +55,7 @@ MAX_CAMERA_PIXELS = 1920 * 1080
 SIM_BYTES_PER_PIXEL = 340
 
 #: The robot's white-balance tint limit (``camera.detect.tint_limit``'s default): see
-#: :attr:`~marknav.vision.detect.photometry.PhotometryConfig.tint_limit`.
+#: :attr:`DetectorConfig.tint_limit`.
 ROBOT_TINT_LIMIT = 0.05
 
 
@@ -64,8 +65,8 @@ class PowerRange(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     model: Literal["power"] = Field(description="power: d = a · r^b, fitted to measurements.")
-    a: float = Field(gt=0, allow_inf_nan=False, description="Factor a (mm at r = 1 px).")
-    b: float = Field(lt=0, allow_inf_nan=False, description="Exponent b (negative).")
+    a: Number = Field(gt=0, allow_inf_nan=False, description="Factor a (mm at r = 1 px).")
+    b: Number = Field(lt=0, allow_inf_nan=False, description="Exponent b (negative).")
 
 
 class PinholeRange(BaseModel):
@@ -75,7 +76,7 @@ class PinholeRange(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     model: Literal["pinhole"] = Field(description="pinhole: d = focal_px · R / r.")
-    focal_px: float = Field(gt=0, allow_inf_nan=False, description="Focal length in pixels.")
+    focal_px: Number = Field(gt=0, allow_inf_nan=False, description="Focal length in pixels.")
 
 
 RangeModel = Annotated[PowerRange | PinholeRange, Field(discriminator="model")]
@@ -91,10 +92,10 @@ class CameraIntrinsics(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    fx: float = Field(gt=0, allow_inf_nan=False, description="Focal length along u, px.")
-    fy: float = Field(gt=0, allow_inf_nan=False, description="Focal length along v, px.")
-    cx: float = Field(ge=0, allow_inf_nan=False, description="Principal point, column (px).")
-    cy: float = Field(ge=0, allow_inf_nan=False, description="Principal point, row (px).")
+    fx: Number = Field(gt=0, allow_inf_nan=False, description="Focal length along u, px.")
+    fy: Number = Field(gt=0, allow_inf_nan=False, description="Focal length along v, px.")
+    cx: Number = Field(ge=0, allow_inf_nan=False, description="Principal point, column (px).")
+    cy: Number = Field(ge=0, allow_inf_nan=False, description="Principal point, row (px).")
     dist: list[Annotated[float, Field(allow_inf_nan=False)]] = Field(
         default_factory=list,
         description="Distortion coefficients in OpenCV's order: k1, k2, p1, p2[, k3[, k4, k5, "
@@ -115,20 +116,20 @@ class DetectSettings(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    max_range_mm: float | None = Field(
+    max_range_mm: Number | None = Field(
         default=None, gt=0, allow_inf_nan=False,
         description="Farthest mark range that matters, mm: marks smaller than one there "
         "(0.9·focal_px·marks.radius_mm / max_range_mm px, at least 5 px) are not searched "
         "for. null (default): the detector's fixed pixel minimum (5 px, more on frames over "
         "640 px wide); 6000 lost marks in long-course search turns.",
     )
-    horizon_tolerance_deg: float | None = Field(
+    horizon_tolerance_deg: Number | None = Field(
         default=3.0, ge=0, le=30, allow_inf_nan=False,
         description="The paper's camera-height prior (§3.1): mark centres lie on the principal "
         "point's row, within this camera pitch and roll, degrees (focal_px·tan t + width/2·tan t "
         "px, plus 4 px). null: marks anywhere in the frame.",
     )
-    tint_limit: float | None = Field(
+    tint_limit: Number | None = Field(
         default=ROBOT_TINT_LIMIT, ge=0, le=1, allow_inf_nan=False,
         description="Largest green–magenta part of the white balance (ln G − (ln B + ln R)/2 of "
         "the grey-world gains). Room lights differ along blue–amber; a strong green or magenta "
@@ -136,20 +137,20 @@ class DetectSettings(BaseModel):
         "to orange. null: plain grey world (a camera with a green tint of its own: better fix "
         "it in the camera).",
     )
-    min_chroma_contrast: float = Field(
-        default=ShapeConfig.min_contrast, ge=0, le=255, allow_inf_nan=False,
-        description="Least colour difference (BGR levels after the detector's exposure and "
-        "light-colour correction, grey removed) between a mark's paint and its surroundings: "
-        "fainter round blobs of a palette hue (out-of-focus clutter) are not marks. Painted "
-        "marks measure 88 and more on the project's rendered and photographed corpora. "
-        "0: off.",
+    min_chroma_contrast: Number = Field(
+        default=DetectorConfig.min_chroma_contrast, ge=0, le=255, allow_inf_nan=False,
+        description="Least colour difference (white-balanced BGR units, grey removed) between a "
+        "mark and a ring just outside it, scaled down in scenes darker than a grey level of "
+        "100: fainter round blobs of a palette hue (out-of-focus clutter) are not marks. "
+        "Painted marks measure 108 and more in the simulator, 49 and more composited into "
+        "photographs. 0: off (pale or washed-out marks).",
     )
-    max_readings: int = Field(
-        default=ShapeConfig.max_blobs, ge=1, le=100_000,
-        description="Most mark-shaped blobs one frame's marks are measured from, the largest "
-        "first: a crowded view (a poster of coloured squares, a rug) gives hundreds, each "
-        "costing about 0.1 ms; the rest of that frame is left unmeasured and a warning logged. "
-        "The project's scenes and photographs need at most 120. Lower it on a slow computer.",
+    max_readings: Integer = Field(
+        default=DetectorConfig.max_readings, ge=1, le=100_000,
+        description="Most blobs one frame is searched for marks in, the largest first: a "
+        "crowded view (a poster of coloured squares, a rug) gives hundreds, each costing "
+        "0.05–1 ms; the rest of that frame is left unread and a warning logged. The project's "
+        "scenes and photographs need at most 258. Lower it on a slow computer.",
     )
 
 
@@ -158,11 +159,11 @@ class Camera(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    width: int = Field(default=SIM_WIDTH, gt=0, le=MAX_CAMERA_SIDE_PX,
+    width: Integer = Field(default=SIM_WIDTH, gt=0, le=MAX_CAMERA_SIDE_PX,
                        description="Image width in pixels.")
-    height: int = Field(default=SIM_HEIGHT, gt=0, le=MAX_CAMERA_SIDE_PX,
+    height: Integer = Field(default=SIM_HEIGHT, gt=0, le=MAX_CAMERA_SIDE_PX,
                         description="Image height in pixels.")
-    focal_px: float = Field(
+    focal_px: Number = Field(
         default=SIM_FOCAL_PX, gt=0, allow_inf_nan=False,
         description="Focal length in pixels: the simulated camera's, and the horizontal field of "
         "view's (2·atan(width / (2·focal_px)), 57° by default). With intrinsics and no focal_px, "
@@ -184,24 +185,24 @@ class Camera(BaseModel):
         default=DetectSettings(),
         description="Detector settings from the camera model: farthest range, horizon prior.",
     )
-    pitch_deg: float | None = Field(
+    pitch_deg: Number | None = Field(
         default=None, ge=-30, le=30, allow_inf_nan=False,
         description="The camera's tilt above the horizontal, degrees (positive: looking up; "
         "marks at camera height then lie focal_px·tan(pitch) rows below the principal point). "
         "With it the horizon prior's band is placed from the pose; null: level until the marks "
         "seen say otherwise (learnt while driving).",
     )
-    roll_deg: float | None = Field(
+    roll_deg: Number | None = Field(
         default=None, ge=-30, le=30, allow_inf_nan=False,
         description="The camera's turn about its optical axis, degrees (positive: the image "
         "turns clockwise): widens the horizon band by width/2·tan(roll) rows. null: 0.",
     )
-    height_mm: float | None = Field(
+    height_mm: Number | None = Field(
         default=None, ge=0, le=5000, allow_inf_nan=False,
         description="Height of the camera's centre above the floor, mm; with marks.height_mm "
         "it places the horizon band. null: at the marks' height.",
     )
-    latency_s: float = Field(
+    latency_s: Number = Field(
         default=0.0, ge=0.0, le=2.0, allow_inf_nan=False,
         description="Seconds from a frame's capture to its arrival that the camera does not "
         "report: a frame's capture time is its arrival minus this (for an MJPEG stream from "

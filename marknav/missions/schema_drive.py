@@ -12,6 +12,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
+from marknav.core.yamlio import Integer, Number
 from marknav.missions.schema_problems import known_key
 
 __all__ = [
@@ -40,21 +41,21 @@ class Robot(BaseModel):
         default="create2",
         description="iRobot Create model: create1 (57600 baud) or create2 (115200 baud).",
     )
-    wheel_base_mm: float = Field(
+    wheel_base_mm: Number = Field(
         default=WHEEL_BASE_MM["create2"], gt=0, allow_inf_nan=False,
         description="Distance between the wheels, in mm. Default: 235 (create2), 258 (create1).",
     )
-    radius_mm: float = Field(
+    radius_mm: Number = Field(
         default=165.0, gt=0, allow_inf_nan=False,
         description="Radius of the robot's round body, in mm (used for the clearance check).",
     )
-    max_speed_mm_s: float = Field(
+    max_speed_mm_s: Number = Field(
         default=300.0, gt=0, allow_inf_nan=False,
         description="Highest wheel speed the controller may command, in mm/s (the Create's limit "
         "is 500).",
         json_schema_extra={"maximum": CREATE_MAX_SPEED_MM_S},
     )
-    odometry_scale: float = Field(
+    odometry_scale: Number = Field(
         default=1.0, ge=0.8, le=1.25, allow_inf_nan=False,
         description="Ground travel per millimetre the encoders report (worn tyres, a wheel off "
         "the nominal 72 mm); `marknav calibrate-odometry` measures it. 1: the encoders as they "
@@ -93,10 +94,10 @@ class Search(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    turn_speed_deg_s: float = Field(
+    turn_speed_deg_s: Number = Field(
         default=40.0, gt=0, allow_inf_nan=False, description="Turn rate while searching, degrees/s."
     )
-    timeout_s: float = Field(
+    timeout_s: Number = Field(
         default=15.0, gt=0, allow_inf_nan=False,
         description="Give up (the mission fails) after searching this long, seconds.",
     )
@@ -107,29 +108,29 @@ class Navigation(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    bypass_distance_mm: float = Field(
+    bypass_distance_mm: Number = Field(
         default=800.0, gt=0, allow_inf_nan=False,
         description="Start the Bézier bypass when the target is this close, mm.",
     )
-    clearance_mm: float = Field(
+    clearance_mm: Number = Field(
         default=300.0, gt=0, allow_inf_nan=False,
         description="Distance kept between the robot's centre and the mark's centre when passing "
         "it, mm. Must exceed robot.radius_mm + marks.radius_mm.",
     )
-    approach_speed_mm_s: float = Field(
+    approach_speed_mm_s: Number = Field(
         default=250.0, gt=0, allow_inf_nan=False,
         description="Forward speed while approaching a mark, mm/s (at most robot.max_speed_mm_s).",
     )
-    lost_after_s: float = Field(
+    lost_after_s: Number = Field(
         default=0.5, gt=0, allow_inf_nan=False,
         description="A target unseen this long, seconds, is lost: the robot searches for it.",
     )
-    lookahead_mm: float = Field(
+    lookahead_mm: Number = Field(
         default=150.0, gt=0, allow_inf_nan=False,
         description="Pure-pursuit lookahead along the bypass curve, mm.",
     )
     search: Search = Field(default=Search(), description="Searching for a lost target.")
-    bypass_margin_mm: float = Field(
+    bypass_margin_mm: Number = Field(
         default=40.0, ge=0, le=500, allow_inf_nan=False,
         description="Extra distance, mm, planned beyond clearance_mm. Once the mark leaves the "
         "camera's view the bypass is tracked from odometry alone, and unequal wheels (which "
@@ -157,17 +158,17 @@ class Safety(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    command_timeout_s: float = Field(
+    command_timeout_s: Number = Field(
         default=0.3, gt=0, allow_inf_nan=False,
         description="Stop the wheels when no fresh wheel command came for this long, seconds "
         "(at least two control periods).",
     )
-    sensor_timeout_s: float = Field(
+    sensor_timeout_s: Number = Field(
         default=0.2, gt=0.015, allow_inf_nan=False,
         description="Stop the wheels when no valid sensor frame came for this long, seconds "
         "(the Create streams every 15 ms).",
     )
-    max_bump_recoveries: int = Field(
+    max_bump_recoveries: Integer = Field(
         default=2, ge=0, description="Bumper contacts recovered from before the mission is aborted."
     )
 
@@ -177,7 +178,7 @@ class Control(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    rate_hz: float = Field(
+    rate_hz: Number = Field(
         default=20.0, ge=1, le=100, allow_inf_nan=False,
         description="Control loop rate, Hz (1..100).",
     )
@@ -193,7 +194,7 @@ class Sim(BaseModel):
         description="World file for the simulator, relative to this mission file. Without one, "
         "a world is generated from the route and the seed.",
     )
-    seed: int = Field(
+    seed: Integer = Field(
         default=0, ge=0,
         description="Random seed of the simulator (--seed overrides it).",
     )
@@ -217,7 +218,7 @@ class Sim(BaseModel):
     @field_validator("conditions")
     @classmethod
     def _known_conditions(cls, value: dict[str, Any]) -> dict[str, Any]:
-        from marknav.sim.world import Conditions
+        from marknav.sim.world.schema import Conditions
 
         try:
             Conditions.model_validate(value)

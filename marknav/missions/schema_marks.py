@@ -10,11 +10,12 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 from pydantic_core import InitErrorDetails
 
+from marknav.core.yamlio import Integer, Number
 from marknav.missions.schema_problems import problem_detail, raise_problems
 
 __all__ = ["ColourName", "ColourSpec", "Hue", "Marks"]
 
-Hue = Annotated[int, Field(ge=0, le=179)]
+Hue = Annotated[Integer, Field(ge=0, le=179)]
 ColourName = Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_-]*$")]
 
 
@@ -35,11 +36,11 @@ class ColourSpec(BaseModel):
         description="Side of the mark the robot passes on. left: the robot drives by with the "
         "mark on its right; right: with the mark on its left.",
     )
-    sat_min: int = Field(
+    sat_min: Integer = Field(
         default=100, ge=0, le=255,
         description="Lowest saturation (0..255) a pixel of this mark may have.",
     )
-    val_min: int = Field(
+    val_min: Integer = Field(
         default=50, ge=0, le=255,
         description="Lowest value/brightness (0..255) a pixel of this mark may have.",
     )
@@ -50,7 +51,7 @@ class Marks(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    radius_mm: float = Field(
+    radius_mm: Number = Field(
         default=100.0, gt=0, allow_inf_nan=False,
         description="Physical radius of every mark, in mm (a disc at camera height).",
     )

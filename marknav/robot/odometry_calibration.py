@@ -15,28 +15,39 @@ ground truth) gives the true figures, and
 The mean speed over the straight (measured distance over driving time) against the commanded
 speed shows a sagging battery's top speed or an acceleration limit.
 
-Both manoeuvres go through the robot's safety layer at the control rate, as a mission does.
+Both manoeuvres go through the robot's safety layer at the control rate, as a mission does: a
+fault it reports (bump, cliff, wheel drop, overcurrent, low battery, a lost link) stops the
+wheels and ends the calibration with :class:`CalibrationAborted` (exit 1, the fault named), as
+it aborts a run.
 """
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from dataclasses import dataclass
 from typing import Protocol
 
 from marknav.core.clock import Clock, MonotonicClock
+from marknav.core.errors import MarknavError
 from marknav.planning.kinematics import Pose, wrap_angle
 from marknav.robot.driver import CreateDriver
 from marknav.robot.robot import Robot
 
-__all__ = ["DriverEnvironment", "DrivingEnvironment", "Leg", "drive_straight",
+__all__ = ["CalibrationAborted", "DriverEnvironment", "DrivingEnvironment", "Leg", "drive_straight",
            "effective_wheel_base", "odometry_scale", "turn_in_place"]
+
+log = logging.getLogger(__name__)
 
 #: Time for the last sensor frames to report the stopped wheels before odometry is read, s.
 SETTLE_S = 0.3
 #: Longest a leg may take, as a multiple of its nominal time (a stalled robot ends the leg).
 TIMEOUT_FACTOR = 3.0
+
+
+class CalibrationAborted(MarknavError):
+    """The safety layer refused a manoeuvre (a fault): the wheels were stopped; exit 1."""
 
 
 class DrivingEnvironment(Protocol):
@@ -98,6 +109,18 @@ def _settle(env: DrivingEnvironment, period: float) -> None:
         _cycle(env, period)
 
 
+def _abort(env: DrivingEnvironment, what: str) -> CalibrationAborted:
+    """Stop the wheels (again: the safety layer did) and say which fault refused ``what``."""
+    robot = env.robot
+    why = f"{robot.safety_state}: {robot.fault_reason or 'no reason given'}"
+    try:
+        robot.stop()
+    except Exception:  # the link may be gone; closing the environment tries again
+        log.exception("stopping the wheels failed")
+    return CalibrationAborted(f"aborted: the safety layer refused to {what} ({why}); "
+                              "nothing was measured")
+
+
 def drive_straight(env: DrivingEnvironment, *, distance_mm: float, speed_mm_s: float,
                    rate_hz: float = 20.0) -> Leg:
     """Drive straight ahead until odometry has covered ``distance_mm``; the odometry distance
@@ -114,8 +137,7 @@ def drive_straight(env: DrivingEnvironment, *, distance_mm: float, speed_mm_s: f
         if math.hypot(p.x - start.x, p.y - start.y) >= distance_mm:
             break
         if not env.robot.drive(left=speed_mm_s, right=speed_mm_s):
-            raise RuntimeError(f"the safety layer refused to drive ({env.robot.safety_state}: "
-                               f"{env.robot.fault_reason or 'no reason given'})")
+            raise _abort(env, "drive")
         _cycle(env, period)
     drive_s = env.clock.now() - t0
     _settle(env, period)
@@ -138,8 +160,7 @@ def turn_in_place(env: DrivingEnvironment, *, angle_deg: float, turn_speed_deg_s
     limit = t0 + TIMEOUT_FACTOR * angle_deg / turn_speed_deg_s + 2.0
     while env.clock.now() < limit and math.degrees(turned) < angle_deg:
         if not env.robot.drive(left=-wheel, right=wheel):
-            raise RuntimeError(f"the safety layer refused to turn ({env.robot.safety_state}: "
-                               f"{env.robot.fault_reason or 'no reason given'})")
+            raise _abort(env, "turn")
         _cycle(env, period)
         theta = env.robot.pose().theta
         turned += wrap_angle(theta - last)

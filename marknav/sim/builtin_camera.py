@@ -54,7 +54,8 @@ from marknav.sim.lens import LensWarp, lens_warp
 from marknav.sim.projection import RIM_POINTS, MarkGeometry, ProjectedMark, inset
 from marknav.sim.projection import warm_up as _warm_projection
 from marknav.sim.scenery import draw_poles, near_hues, paint_distractors, paint_room, poles
-from marknav.sim.world import Background, ClutterItem, Conditions, World, clutter_items
+from marknav.sim.world.clutter import ClutterItem, clutter_items
+from marknav.sim.world.schema import Background, Conditions, World
 from marknav.vision.estimate import PowerLaw
 from marknav.vision.palette import ColourRange
 from marknav.vision.sources import Frame, Image

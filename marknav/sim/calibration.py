@@ -18,7 +18,7 @@ import numpy as np
 from marknav.core.errors import MissionFailed
 from marknav.planning.kinematics import Pose
 from marknav.sim.builtin_camera import CameraConfig, Renderer
-from marknav.sim.world import Background, Conditions, MarkSpec, World
+from marknav.sim.world.schema import Background, Conditions, MarkSpec, World
 from marknav.vision.calibrate import PowerFit, fit_power_law
 from marknav.vision.detect import Detector
 from marknav.vision.palette import DEFAULT_PALETTE, ColourRange

@@ -29,15 +29,17 @@ import numpy as np
 import numpy.typing as npt
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from marknav.sim.randomisation import bounds
 from marknav.vision.undistort import Intrinsics, undistort_points
 
 __all__ = ["K1_RANGE", "PRINCIPAL_OFFSET_MAX", "TANGENTIAL_MAX", "Lens", "LensWarp",
            "lens_warp", "principal_point", "random_lens"]
 
-#: What :func:`random_lens` draws (ordinary webcams).
-K1_RANGE = (-0.4, 0.0)
-TANGENTIAL_MAX = 0.002
-PRINCIPAL_OFFSET_MAX = 0.04  # of the image's width / height
+#: What :func:`random_lens` draws (ordinary webcams): the ``lens.*`` entries of the one table of
+#: randomised ranges, :mod:`marknav.sim.randomisation`.
+K1_RANGE = bounds("lens.k1")
+TANGENTIAL_MAX = bounds("lens.tangential")[1]
+PRINCIPAL_OFFSET_MAX = bounds("lens.principal_offset")[1]  # of the image's width / height
 #: The distortion must stay monotonic out to this normalised radius (beyond any webcam's corner).
 _MONOTONIC_RHO = 1.2
 
@@ -85,9 +87,9 @@ class Lens(BaseModel):
 def random_lens(rng: np.random.Generator) -> Lens:
     """A webcam-like lens (see the module doc)."""
     k1 = float(rng.uniform(*K1_RANGE))
-    k2 = float(0.5 * k1 * k1 + rng.uniform(0.0, 0.1))
-    p1, p2 = (float(v) for v in rng.uniform(-TANGENTIAL_MAX, TANGENTIAL_MAX, 2))
-    off = rng.uniform(-PRINCIPAL_OFFSET_MAX, PRINCIPAL_OFFSET_MAX, 2)
+    k2 = float(0.5 * k1 * k1 + rng.uniform(*bounds("lens.k2_excess")))
+    p1, p2 = (float(v) for v in rng.uniform(*bounds("lens.tangential"), 2))
+    off = rng.uniform(*bounds("lens.principal_offset"), 2)
     return Lens(k1=round(k1, 4), k2=round(k2, 4), p1=round(p1, 5), p2=round(p2, 5),
                 principal_offset=(round(float(off[0]), 4), round(float(off[1]), 4)))
 

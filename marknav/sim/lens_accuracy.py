@@ -22,7 +22,7 @@ import numpy as np
 from marknav.planning.kinematics import Pose
 from marknav.sim.builtin_camera import CameraConfig, Renderer
 from marknav.sim.lens import Lens
-from marknav.sim.world import Background, Conditions, MarkSpec, World
+from marknav.sim.world.schema import Background, Conditions, MarkSpec, World
 from marknav.vision.detect import Detector
 from marknav.vision.estimate import Pinhole, estimate
 from marknav.vision.palette import DEFAULT_PALETTE

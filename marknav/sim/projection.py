@@ -4,8 +4,9 @@ Every frame projects each mark in front of the camera (``RIM_POINTS`` rim points
 polygon in by the anti-aliased fill's reach before it is drawn. As NumPy calls on 96-point
 arrays this cost ≈ 0.17 ms a frame, almost all of it the calls (≈ 7 % of a simulated control
 cycle); :func:`rim_projection` and :func:`inset` do the same arithmetic in one compiled call
-each (:mod:`marknav.core.compiled`). ``tests/sim/test_camera_fast_paths.py`` checks the projection
-bit for bit against one-rim-at-a-time NumPy and the inset against the NumPy inset it replaced.
+each (:mod:`marknav.core.compiled`). ``tests/sim/test_builtin_camera_fast_paths.py`` checks the
+projection bit for bit against one-rim-at-a-time NumPy and the inset against the NumPy inset it
+replaced.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from marknav.core.compiled import compiled_ieee
 
 if TYPE_CHECKING:
     from marknav.planning.kinematics import Pose
-    from marknav.sim.world import World
+    from marknav.sim.world.schema import World
 
 
 class CameraConfig(Protocol):

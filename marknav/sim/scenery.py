@@ -40,6 +40,8 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from marknav.sim.randomisation import bounds, counts
+
 __all__ = [
     "NEAR_HUE_OFFSET",
     "PHOTOS",
@@ -57,13 +59,14 @@ Image = npt.NDArray[np.uint8]
 
 #: The photographs the ``photo`` wall is made of.
 PHOTOS = Path(__file__).resolve().parent / "photos"
+# The drawn ranges are entries of the one table, marknav.sim.randomisation (``room.*``).
 #: A near-mark colour lies this many hue units beyond the end of a palette range.
-NEAR_HUE_OFFSET = (8.0, 10.0)
+NEAR_HUE_OFFSET = bounds("room.near_hue_offset")
 #: Widths of the poles at f = 590 px.
-POLE_WIDTH_PX = (2.0, 8.0)
+POLE_WIDTH_PX = bounds("room.pole_width")
 #: Ranges :func:`random_room` draws from.
-FLOOR_SATURATION_RANGE = (60.0, 160.0)
-WALL_TINT_SATURATION = (60.0, 120.0)
+FLOOR_SATURATION_RANGE = bounds("room.floor_saturation")
+WALL_TINT_SATURATION = bounds("room.wall_tint_saturation")
 #: Hue units around each palette range that walls and photographs keep clear of.
 PALETTE_MARGIN = 4.0
 #: Saturation a photograph's palette-coloured pixels are brought down to (below the
@@ -281,12 +284,13 @@ def random_room(seed: int) -> dict[str, Any]:
     """The room conditions of a randomised world (a :class:`Conditions` update), drawn from
     the world's seed on their own stream (the course and the other conditions are unchanged)."""
     rng = np.random.default_rng([int(seed), 0x2A2D])
+    occluders, distractors = counts("room.occluders"), counts("room.distractors")
     floor = ("plain", "wood", "carpet")[int(rng.integers(3))]
     return {
         "floor": floor,
         "floor_saturation": round(float(rng.uniform(*FLOOR_SATURATION_RANGE)), 1),
         "wall": "photo" if rng.random() < 0.4 else "plain",
         "wall_hue": round(float(rng.uniform(0, 180)), 1) if rng.random() < 0.2 else None,
-        "occluders": int(rng.integers(0, 5)),
-        "distractors": int(rng.integers(0, 6)),
+        "occluders": int(rng.integers(occluders[0], occluders[1] + 1)),
+        "distractors": int(rng.integers(distractors[0], distractors[1] + 1)),
     }

@@ -6,7 +6,9 @@ Installing marknav registers a pytest plugin (entry point ``pytest11``) with the
 - ``fake_robot`` — a :class:`FakeRobot` on that clock, connected, at the origin facing +y;
 - ``fake_perception`` — a :class:`FakePerception` (named ``Perception``) with no marks yet;
 - ``blackboard`` — clears py_trees' process-global blackboard before and after the test;
-- ``mission_factory`` — :func:`make_mission`: a minimal valid mission, with overrides.
+- ``mission_factory`` — :func:`make_mission`: a minimal valid mission, with overrides;
+- ``tree_coverage`` — a :class:`TreeCoverage` of the test's ticks: which nodes ticked, with
+  which outcomes (``pytest --marknav-coverage``: the whole session's, summed up at the end).
 
 :func:`tick_until` ticks a tree (advancing the clock) until a status, recording every tick.
 
@@ -36,6 +38,7 @@ Example — a whole waypoint, approach and bypass, closed loop::
 """
 
 from marknav.core.clock import ManualClock
+from marknav.testing.coverage import NodeCoverage, TreeCoverage
 from marknav.testing.missions import BASE_MISSION, make_mission
 from marknav.testing.perception import FakePerception, RobotMark, WorldMark, pinhole_pixels
 from marknav.testing.robot import DriveRequest, FakeRobot, WheelCommand
@@ -47,9 +50,11 @@ __all__ = [
     "FakePerception",
     "FakeRobot",
     "ManualClock",
+    "NodeCoverage",
     "RobotMark",
     "TickLog",
     "TickRecord",
+    "TreeCoverage",
     "WheelCommand",
     "WorldMark",
     "active_path",

@@ -1,9 +1,13 @@
 """pytest plugin (registered through the ``pytest11`` entry point): marknav's fixtures.
 
 Installing marknav makes these fixtures available to any test suite: ``manual_clock``,
-``fake_robot``, ``fake_perception``, ``blackboard`` and ``mission_factory`` (see
-:mod:`marknav.testing`). The heavier imports happen inside the fixtures, so merely having marknav
-installed costs other test suites nothing.
+``fake_robot``, ``fake_perception``, ``blackboard``, ``mission_factory`` and ``tree_coverage``
+(see :mod:`marknav.testing`). The heavier imports happen inside the fixtures, so merely having
+marknav installed costs other test suites nothing.
+
+``pytest --marknav-coverage`` counts every behaviour-tree tick of the session
+(:mod:`marknav.testing.coverage`) and prints, at the end, each node's ticks and outcomes and the
+nodes no test reached.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ from marknav.core.clock import ManualClock
 
 if TYPE_CHECKING:
     from marknav.missions.schema import Mission
+    from marknav.testing.coverage import TreeCoverage
     from marknav.testing.perception import FakePerception
     from marknav.testing.robot import FakeRobot
 
@@ -65,3 +70,54 @@ def mission_factory() -> Callable[..., Mission]:
         return make_mission(**overrides)
 
     return factory
+
+
+# --- tree coverage ----------------------------------------------------------------------------
+
+_SESSION_KEY = pytest.StashKey["TreeCoverage"]()
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.getgroup("marknav").addoption(
+        "--marknav-coverage", action="store_true", default=False,
+        help="count the behaviour-tree nodes every test ticks, with their outcomes; print a "
+             "summary (and the nodes never reached) at the end")
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    if session.config.getoption("--marknav-coverage", default=False):
+        from marknav.testing.coverage import TreeCoverage
+
+        session.config.stash[_SESSION_KEY] = TreeCoverage().start()
+
+
+def pytest_terminal_summary(terminalreporter: Any, exitstatus: int,
+                            config: pytest.Config) -> None:
+    coverage = config.stash.get(_SESSION_KEY, None)
+    if coverage is None:
+        return
+    coverage.stop()
+    terminalreporter.section("marknav tree coverage")
+    if not coverage.nodes:
+        terminalreporter.write_line("no behaviour tree was ticked")
+        return
+    for line in coverage.report():
+        terminalreporter.write_line(line)
+    never = coverage.never_ticked()
+    leaves = [c for c in coverage.nodes.values() if c.kind == "leaf" and c.ticks]
+    terminalreporter.write_line(
+        f"{len(coverage.nodes)} nodes, {len(never)} never ticked; "
+        f"{sum(1 for c in leaves if not c.statuses['FAILURE'])} of {len(leaves)} ticked leaves "
+        "never failed")
+
+
+@pytest.fixture
+def tree_coverage() -> Iterator[TreeCoverage]:
+    """A :class:`~marknav.testing.coverage.TreeCoverage` of the test's own ticks:
+    ``tree_coverage.outcomes("Bypass") == {"RUNNING", "SUCCESS"}``,
+    ``tree_coverage.never_ticked()``."""
+    from marknav.testing.coverage import TreeCoverage
+
+    coverage = TreeCoverage().start()
+    yield coverage
+    coverage.stop()

@@ -13,6 +13,7 @@ usable images.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import re
@@ -37,6 +38,14 @@ log = logging.getLogger(__name__)
 
 #: Fewer views than this leave the fit underdetermined or meaningless.
 MIN_IMAGES = 3
+#: Fewest inner corners along a side: OpenCV's chessboard finder needs more than 2.
+MIN_CORNERS = 3
+#: Most inner corners along a side: a printed board with squares big enough to find (a 50-square
+#: side of A3 has 8 mm squares).
+MAX_CORNERS = 50
+#: Square sides accepted (mm): from a fine printed target to a floor-sized board.
+MIN_SQUARE_MM = 0.5
+MAX_SQUARE_MM = 1000.0
 _SUBPIX = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)
 
 FloatArray = npt.NDArray[np.float64]
@@ -49,8 +58,9 @@ def parse_board(text: str) -> tuple[int, int]:
         raise InputError(f"expected COLSxROWS inner corners (e.g. 9x6), got {text!r}",
                          field="--board")
     cols, rows = int(m.group(1)), int(m.group(2))
-    if cols < 2 or rows < 2:
-        raise InputError(f"a board needs at least 2x2 inner corners, got {text}", field="--board")
+    if min(cols, rows) < MIN_CORNERS or max(cols, rows) > MAX_CORNERS:
+        raise InputError(f"a board has {MIN_CORNERS} to {MAX_CORNERS} inner corners a side "
+                         f"(e.g. 9x6), got {text.strip()}", field="--board")
     return cols, rows
 
 
@@ -97,12 +107,10 @@ def write_opencv_yml(cal: CameraCalibration, out: str | Path) -> None:
     ``nframes``, ``board_width``, ``board_height`` (inner corners) and ``square_size`` (mm;
     OpenCV's sample leaves the unit to the user). ``cv2.FileStorage(path, READ)`` reads it."""
     name = str(out)
-    try:
-        fs = cv2.FileStorage(name, cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_FORMAT_YAML)
-    except cv2.error as exc:
-        raise InputError(f"cannot write: {str(exc).strip()}", file=name) from None
-    if not fs.isOpened():
-        raise InputError("cannot write the OpenCV calibration file", file=name)
+    # Built in memory and written by Python: OpenCV's own file writer reports no error (on a
+    # full disk it left a 0-byte file and the command said "written").
+    fs = cv2.FileStorage(name, cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_MEMORY
+                         | cv2.FILE_STORAGE_FORMAT_YAML)
     i = cal.intrinsics
     w, h = cal.image_size
     try:
@@ -120,7 +128,14 @@ def write_opencv_yml(cal: CameraCalibration, out: str | Path) -> None:
             fs.write("per_view_reprojection_errors",
                      np.asarray(cal.per_view_px, dtype=np.float64).reshape(-1, 1))
     finally:
-        fs.release()
+        text = fs.releaseAndGetString()
+    try:
+        with open(name, "w", encoding="utf-8") as fh:
+            fh.write(text)
+    except OSError as exc:
+        with contextlib.suppress(OSError):  # no half file left to be read as a calibration
+            Path(name).unlink(missing_ok=True)
+        raise InputError(f"cannot write: {exc.strerror or exc}", file=name) from None
 
 
 def _read_grey(path: str) -> npt.NDArray[np.uint8]:
@@ -146,6 +161,9 @@ def calibrate_images(paths: Sequence[str], board: tuple[int, int],
     """Calibrate from chessboard photographs (every one must show the board)."""
     if not (math.isfinite(square_mm) and square_mm > 0):
         raise InputError(f"must be a positive number, got {square_mm:g}", field="--square-mm")
+    if not MIN_SQUARE_MM <= square_mm <= MAX_SQUARE_MM:
+        raise InputError(f"must be from {MIN_SQUARE_MM:g} to {MAX_SQUARE_MM:g} mm, got "
+                         f"{square_mm:g}", field="--square-mm")
     if len(paths) < MIN_IMAGES:
         raise InputError(f"need at least {MIN_IMAGES} images of the board, got {len(paths)}")
     views: list[BoardView] = []

@@ -22,7 +22,7 @@ import numpy.typing as npt
 from marknav.core.errors import InputError
 from marknav.core.inputfile import MAX_IMAGE_BYTES, read_bytes
 
-__all__ = ["MAX_IMAGE_PIXELS", "decode_image", "image_size", "read_image"]
+__all__ = ["MAX_IMAGE_PIXELS", "check_image_file", "decode_image", "image_size", "read_image"]
 
 Image = npt.NDArray[np.uint8]
 
@@ -137,9 +137,8 @@ def image_size(data: bytes) -> tuple[str, tuple[int, int] | None] | None:
     return None
 
 
-def decode_image(data: bytes, name: str, *, grey: bool = False) -> Image:
-    """Decode an encoded image (BGR, or one channel with ``grey``) after checking the size its
-    header claims."""
+def _checked_format(data: bytes, name: str) -> str:
+    """The image's format, once its header names a size marknav accepts; else InputError."""
     found = image_size(data)
     if found is None:
         raise InputError("not an image marknav reads (PNG, JPEG, BMP, TIFF, WebP or PNM)",
@@ -153,6 +152,21 @@ def decode_image(data: bytes, name: str, *, grey: bool = False) -> Image:
     if w * h > MAX_IMAGE_PIXELS:
         raise InputError(f"{fmt} header claims {w} × {h} pixels, more than the "
                          f"{MAX_IMAGE_PIXELS / 1e6:g} megapixels accepted", file=name)
+    return fmt
+
+
+def check_image_file(path: str | Path) -> None:
+    """What :func:`read_image` checks before decoding (a readable regular file, a known format,
+    a size in bounds), without decoding: a command given many images checks them all first,
+    then decodes one at a time instead of holding every decoded image at once."""
+    name = str(path)
+    _checked_format(read_bytes(name, limit=MAX_IMAGE_BYTES, what="an image file"), name)
+
+
+def decode_image(data: bytes, name: str, *, grey: bool = False) -> Image:
+    """Decode an encoded image (BGR, or one channel with ``grey``) after checking the size its
+    header claims."""
+    fmt = _checked_format(data, name)
     try:
         image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8),
                              cv2.IMREAD_GRAYSCALE if grey else cv2.IMREAD_COLOR)

@@ -35,7 +35,9 @@ def test_a_bare_name_finds_the_example(tmp_path: Path, monkeypatch: pytest.Monke
     assert mission_path("slalom") == str(EXAMPLES_DIR / "slalom.yaml")
     (tmp_path / "slalom").write_text("name: mine\n")
     assert mission_path("slalom") == "slalom"  # a file of that name wins
-    assert mission_path("nowhere/slalom.yaml") == "nowhere/slalom.yaml"  # a path stays a path
+    assert mission_path("nowhere/mine.yaml") == "nowhere/mine.yaml"  # a path stays a path
+    with pytest.raises(InputError, match="slalom is a built-in example"):
+        mission_path("nowhere/slalom.yaml")  # ... and a missing example's path says so
     with pytest.raises(InputError) as exc:
         mission_path("slaom")
     assert str(exc.value).startswith("slaom: no such file, and no built-in example of that "

@@ -257,8 +257,7 @@ def test_duplicate_key(tmp_path: Path) -> None:
 def test_wrong_type(tmp_path: Path) -> None:
     text = MINIMAL.replace("marks:\n", "marks:\n  radius_mm: big\n")
     assert errors_of(tmp_path, text) == [
-        "M:4:14: marks.radius_mm: Input should be a valid number, unable to parse string as a "
-        "number"
+        "M:4:14: marks.radius_mm: Input should be a valid number, not the text 'big'"
     ]
 
 

@@ -52,7 +52,7 @@ def test_calibrated_odometry_stays_true_where_raw_odometry_drifts(
         calibrate: bool, monkeypatch: pytest.MonkeyPatch) -> None:
     # The wheels alone: a pinhole lens (randomised worlds also draw a webcam lens, which
     # changes what seed 0's run sees).
-    monkeypatch.setattr("marknav.sim.world.random_lens", lambda rng: Lens())
+    monkeypatch.setattr("marknav.sim.world.generators.lens.random_lens", lambda rng: Lens())
     outcome, collisions, scale, true_ratio, drift, closest, clearance = _run(calibrate)
     assert true_ratio == pytest.approx(0.957, abs=0.001)
     if calibrate:

@@ -4,6 +4,7 @@ oracle used only here), curvature, length and arc-length sampling."""
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -96,16 +97,59 @@ def test_min_distance_over_a_chain() -> None:
     assert min_distance([a, b], (170.0, 30.0)) == pytest.approx(30.0)
 
 
+def exact_peak_curvature(curve: QuadraticBezier) -> tuple[float, float] | None:
+    """Oracle, in exact rational arithmetic: the largest |κ| over t ∈ [0, 1], and the rounding
+    a float computation of it cannot avoid (the cross product's cancellation).
+
+    With A = P1 − P0 and B = P0 − 2·P1 + P2, C'(t) = 2(A + tB) and C'' = 2B, so
+    |κ(t)| = |A × B| / (2·|A + tB|³): largest where the quadratic |A + tB|² is least on [0, 1].
+    None for a straight line whose speed reaches 0 (A × B = 0 and A + tB = 0 on [0, 1])."""
+    p0, p1, p2 = ([Fraction(v) for v in p] for p in (curve.p0, curve.p1, curve.p2))
+    a = (p1[0] - p0[0], p1[1] - p0[1])
+    b = (p0[0] - 2 * p1[0] + p2[0], p0[1] - 2 * p1[1] + p2[1])
+    cross = a[0] * b[1] - a[1] * b[0]
+    bb = b[0] * b[0] + b[1] * b[1]
+    t = Fraction(0)
+    if bb != 0:
+        t = min(Fraction(1), max(Fraction(0), -(a[0] * b[0] + a[1] * b[1]) / bb))
+    q = (a[0] + t * b[0]) ** 2 + (a[1] + t * b[1]) ** 2  # |A + tB|², least on [0, 1]
+    if q == 0:
+        return None if bb != 0 else (0.0, 0.0)
+    kappa = math.sqrt(float(cross * cross / (4 * q ** 3)))
+    # floats round the cross product (cancellation) and |A + tB| (least near a turn): the
+    # relative error of each, times its power in κ
+    size_a, size_b = math.hypot(*map(float, a)), math.hypot(*map(float, b))
+    rounding = 1e-13 * (float(abs(a[0] * b[1]) + abs(a[1] * b[0])) / max(abs(float(cross)), 1e-300)
+                        + 3.0 * (size_a + size_b) / math.sqrt(float(q)))
+    return (kappa, rounding)
+
+
+#: points on a micrometre grid (mm): no sub-normal coordinates, whose float arithmetic
+#: underflows in ways no robot meets
+grid_point = st.tuples(*[st.integers(-2_000_000, 2_000_000).map(lambda n: n / 1000)] * 2)
+
+
 @settings(max_examples=100)
-@given(point, point, point)
+@given(grid_point, grid_point, grid_point)
+@example((0.0, 0.0), (100.0, 0.0), (0.0, 0.0))  # out and back on a line: a turn at t = 1/2
+@example((-100.0, 50.0), (0.0, -50.0), (100.0, 50.0))  # the parabola: κ = 1/100 at t = 1/2
+@example((0.0, 0.0), (10.0, 100.0), (-300.0, 20.0))  # the least |C'| past the end: t* → 1
 def test_peak_curvature_is_exact(p0: tuple[float, float], p1: tuple[float, float],
                                  p2: tuple[float, float]) -> None:
     curve = QuadraticBezier(p0, p1, p2)
+    peak = curve.max_abs_curvature()
+    exact = exact_peak_curvature(curve)
+    if exact is None:
+        # A line whose speed reaches 0 (where it turns back, or at P1 = P2): κ is 0/0 there,
+        # and the float t* lands on the line's 0, inf or 1/rounding. Only "a number" holds.
+        assert not math.isnan(peak)
+        return
+    kappa, rounding = exact
+    assert peak == pytest.approx(kappa, rel=1e-9 + rounding, abs=1e-15)
+    # and no sample of the curve turns more sharply than the peak (a check without the algebra)
     ts = np.linspace(0.0, 1.0, 2001)
     sampled = max(abs(curve.curvature(float(t))) for t in ts)
-    peak = curve.max_abs_curvature()
-    if math.isfinite(sampled) and math.isfinite(peak):
-        assert peak >= sampled * (1 - 1e-9) - 1e-12
+    assert peak >= sampled * (1 - 1e-9) - 1e-12
 
 
 def test_curvature_sign_and_value() -> None:

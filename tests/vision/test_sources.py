@@ -1,5 +1,5 @@
 """Frame sources: still image, folder, glob, video file, bad names (live streams are tested
-against marknav serve-camera in test_serve.py)."""
+against marknav serve-camera in tests/remote/test_mjpeg_server.py)."""
 
 from __future__ import annotations
 

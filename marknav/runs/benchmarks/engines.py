@@ -19,7 +19,8 @@ import numpy as np
 from marknav.core.clock import ManualClock
 from marknav.runs.benchmarks.render import _PALETTE, example_poses
 from marknav.sim.builtin_camera import CameraConfig, Renderer
-from marknav.sim.world import World, generate_world
+from marknav.sim.world.generate import generate_world
+from marknav.sim.world.schema import World
 
 __all__ = ["SIZES", "bench_mujoco"]
 

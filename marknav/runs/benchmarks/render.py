@@ -17,7 +17,8 @@ import numpy as np
 import marknav
 from marknav.planning.kinematics import Pose
 from marknav.sim.builtin_camera import CameraConfig, Renderer
-from marknav.sim.world import Conditions, World, generate_world, load_world
+from marknav.sim.world.generate import generate_world
+from marknav.sim.world.schema import Conditions, World, load_world
 from marknav.vision.palette import ColourRange
 
 __all__ = ["TARGET_MS", "bench_render", "example_poses", "example_renderer", "example_world"]

@@ -69,7 +69,7 @@ def _time_route_tree(mission: Mission, *, ticks: int, warmup: int, seed: int,
     from marknav.behaviours import keys
     from marknav.behaviours.route import build_route_tree
     from marknav.core.clock import ManualClock
-    from marknav.sim.world import generate_world
+    from marknav.sim.world.generate import generate_world
     from marknav.testing import FakePerception, FakeRobot, WorldMark
 
     world = generate_world(

@@ -17,8 +17,9 @@ marknav imports all of them from.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
+from typing import overload
 
 from marknav.core.errors import InputError
 from marknav.runs.evaluation.accuracy import (
@@ -53,6 +54,7 @@ __all__ = [
     "percentile",
     "plot_accuracy",
     "position_accuracy",
+    "record_failures",
     "replay_command",
     "run_seed",
     "summarise",
@@ -61,6 +63,49 @@ __all__ = [
 
 
 Progress = Callable[[int, int, int], None]
+
+#: Most runs one evaluation takes: each keeps its result for the summary (a few kB: 10^5 runs are
+#: a few hundred MB) and takes a second or more of a core (10^5 runs: over a day on one core).
+MAX_RUNS = 100_000
+#: Most worker processes (each holds one whole run, ≈ 250 MB: 64 of them fill 16 GB).
+MAX_JOBS = 64
+#: Seeds are 64-bit: the world generator's random source takes them whole.
+MAX_SEED = 2**63 - 1
+
+
+class _Jobs(Sequence[Job]):
+    """The jobs of seeds ``first`` … ``first + n − 1``, made as they are asked for (an
+    evaluation's backends queue them lazily; a list of 10^7 jobs was gigabytes)."""
+
+    def __init__(self, spec: str, first: int, n: int, overrides: tuple[str, ...],
+                 engine: str | None) -> None:
+        self._spec, self._first, self._n = spec, first, n
+        self._overrides, self._engine = overrides, engine
+
+    def __len__(self) -> int:
+        return self._n
+
+    def _job(self, k: int) -> Job:
+        # (mission, seed, overrides[, engine]): the engine only when --engine was given
+        seed = self._first + k
+        if self._engine is not None:
+            return (self._spec, seed, self._overrides, self._engine)
+        return (self._spec, seed, self._overrides)
+
+    @overload
+    def __getitem__(self, index: int) -> Job: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> list[Job]: ...
+
+    def __getitem__(self, index: int | slice) -> Job | list[Job]:
+        picked = range(self._n)[index]
+        if isinstance(picked, range):
+            return [self._job(k) for k in picked]
+        return self._job(picked)
+
+    def __iter__(self) -> Iterator[Job]:
+        return (self._job(k) for k in range(self._n))
 
 
 class EvaluationStopped(KeyboardInterrupt):
@@ -71,6 +116,30 @@ class EvaluationStopped(KeyboardInterrupt):
     def __init__(self, evaluation: Evaluation, signame: str = "SIGINT") -> None:
         super().__init__(signame)
         self.evaluation = evaluation
+
+
+def _check_numbers(runs: int, jobs: int, seed: int, max_time_s: float | None,
+                   min_success: float) -> None:
+    """:class:`InputError` naming the option of the first number out of its range."""
+    if runs < 1:
+        raise InputError(f"must be at least 1, got {runs}", field="--runs")
+    if runs > MAX_RUNS:
+        raise InputError(f"must be at most {MAX_RUNS:,} (each run keeps its result for the "
+                         f"summary), got {runs:,}", field="--runs")
+    if jobs < 1:
+        raise InputError(f"must be at least 1, got {jobs}", field="--jobs")
+    if jobs > MAX_JOBS:
+        raise InputError(f"must be at most {MAX_JOBS} worker processes, got {jobs:,}",
+                         field="--jobs")
+    if seed < 0:
+        raise InputError(f"must be ≥ 0, got {seed}", field="--seed")
+    if seed > MAX_SEED - runs:
+        raise InputError(f"must be at most {MAX_SEED - runs:,} (seeds are 64-bit), got "
+                         f"{seed:,}", field="--seed")
+    if max_time_s is not None and not max_time_s > 0:
+        raise InputError(f"must be positive, got {max_time_s}", field="--max-time")
+    if not 0.0 <= min_success <= 1.0:
+        raise InputError(f"must be between 0 and 1, got {min_success}", field="--min-success")
 
 
 def evaluate(
@@ -97,16 +166,7 @@ def evaluate(
     """
     from marknav.missions.schema import load_mission
 
-    if runs < 1:
-        raise InputError(f"must be at least 1, got {runs}", field="--runs")
-    if jobs < 1:
-        raise InputError(f"must be at least 1, got {jobs}", field="--jobs")
-    if seed < 0:
-        raise InputError(f"must be ≥ 0, got {seed}", field="--seed")
-    if max_time_s is not None and not max_time_s > 0:
-        raise InputError(f"must be positive, got {max_time_s}", field="--max-time")
-    if not 0.0 <= min_success <= 1.0:
-        raise InputError(f"must be between 0 and 1, got {min_success}", field="--min-success")
+    _check_numbers(runs, jobs, seed, max_time_s, min_success)
     path = str(mission_path)
     from marknav.missions.overrides import parse_overrides
 
@@ -126,7 +186,6 @@ def evaluate(
         from marknav.sim.mujoco.gl import import_mujoco
 
         import_mujoco()
-    seeds = list(range(seed, seed + runs))
     results: list[SeedResult] = []
     wall0 = time.perf_counter()
 
@@ -151,9 +210,7 @@ def evaluate(
         ev.engine, ev.engine_given = engine_used, engine is not None
         return ev
 
-    # (mission, seed, overrides[, engine]): the engine only when --engine was given
-    jobs_list: list[Job] = [(spec, s, tuple(overrides), engine) if engine is not None
-                            else (spec, s, tuple(overrides)) for s in seeds]
+    jobs_list = _Jobs(spec, seed, runs, tuple(overrides), engine)
     try:
         _, workers = run_jobs(run_seed, jobs_list,
                               max_time_s=max_time_s,
@@ -163,3 +220,22 @@ def evaluate(
         ev.interrupted = True
         raise EvaluationStopped(ev, str(exc) or "SIGINT") from exc
     return summary(workers)
+
+
+def record_failures(ev: Evaluation, folder: Path,
+                    on_recorded: Callable[[SeedResult, Path, SeedResult], None] | None = None
+                    ) -> list[Path]:
+    """Run each failing seed of ``ev`` again (a run depends on its seed alone) with its MCAP
+    recording in ``folder/seed-N/run.mcap`` (a folder each: a rosbag2 folder holds one bag).
+    ``on_recorded(failure, path, again)`` after each; returns the recordings written."""
+    written = []
+    for failure in ev.failures:
+        path = folder / f"seed-{failure.seed}" / "run.mcap"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        again = run_seed(ev.mission_path, failure.seed, ev.max_time_s, ev.overrides,
+                         ev.engine if ev.engine_given else None, record_path=path)
+        if path.exists():
+            written.append(path)
+        if on_recorded is not None:
+            on_recorded(failure, path, again)
+    return written

@@ -13,6 +13,7 @@ import time
 import traceback
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
+from pathlib import Path
 
 from marknav.core.errors import InputError
 from marknav.runs.records.seed_result import (
@@ -43,12 +44,14 @@ def _quiet_runs() -> Iterator[None]:
 
 
 def run_seed(mission_path: str, seed: int, max_time_s: float | None = None,
-             overrides: Sequence[str] = (), engine: str | None = None) -> SeedResult:
+             overrides: Sequence[str] = (), engine: str | None = None,
+             record_path: Path | None = None) -> SeedResult:
     """One evaluation run — the job (mission spec, seed[, --set overrides]): load the mission
     and run it on the generated randomised world of ``seed``; or, for the spec ``"random"``,
     draw the mission and its world from ``seed``
     (:func:`marknav.runs.evaluation.random_mission.random_mission`, here in the worker, so the job
-    stays small). ``engine`` overrides the mission's simulator engine.
+    stays small). ``engine`` overrides the mission's simulator engine; ``record_path`` saves
+    the run's MCAP recording there.
 
     A run that raises (a bug, not a mission failure) becomes outcome ``"error"`` with the
     exception as its reason; bad input (:class:`InputError`) and Ctrl-C propagate.
@@ -65,11 +68,11 @@ def run_seed(mission_path: str, seed: int, max_time_s: float | None = None,
             drawn = random_mission(seed)
             mission = drawn.mission
             req = RunRequest(mission=mission, seed=seed, world_model=drawn.world,
-                             max_time_s=max_time_s, engine=engine)
+                             max_time_s=max_time_s, engine=engine, record_path=record_path)
         else:
             mission = load_mission(mission_path, overrides=parse_overrides(overrides))  # --set
             req = RunRequest(mission=mission, seed=seed, generate_world=True, randomise=True,
-                             max_time_s=max_time_s, engine=engine)
+                             max_time_s=max_time_s, engine=engine, record_path=record_path)
         with _quiet_runs():
             report = execute(req).report
     except InputError:

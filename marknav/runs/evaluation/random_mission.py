@@ -13,10 +13,12 @@ Per seed (deterministic: the same seed gives the same mission and world, on any 
 - a range model: the simulator's own fit (power law, of 100 mm marks, rescaled to the mission's
   mark radius), the pinhole model, or that fit with its scale off by up to ±25 % (a range law
   that over- or under-estimates every distance by that much);
-- the world: :func:`marknav.sim.world.generate_world` for that route with randomised conditions
-  (its course: the marks in route order), plus 0–3 off-course marks of route colours beside the
-  course, placed where they are never nearer than a course mark of their colour from where the
-  robot looks for it.
+- the world: :func:`marknav.sim.world.generate.generate_world` for that route with randomised
+  conditions (its course: the marks in route order), plus 0–3 off-course marks of route colours
+  beside the course, placed where they are never nearer than a course mark of their colour from
+  where the robot looks for it.
+
+The ranges are the ``mission.*`` entries of the one table, :mod:`marknav.sim.randomisation`.
 
 :func:`random_mission` gives the pair; :func:`write_random_mission` writes them as YAML
 (``mission.yaml`` + ``world.yaml``) so ``marknav run DIR/mission.yaml --seed S`` replays the
@@ -35,7 +37,9 @@ import yaml
 
 from marknav.core.yamlio import load_yaml_text
 from marknav.missions.schema import Mission, parse_mission
-from marknav.sim import world as worldmod
+from marknav.sim.randomisation import bounds, counts
+from marknav.sim.world.generate import generate_world
+from marknav.sim.world.schema import CREATE_RADIUS_MM, MarkSpec, World
 
 __all__ = ["PALETTE", "RANDOM", "RandomMission", "random_mission",
            "write_random_mission"]
@@ -45,18 +49,19 @@ Side = Literal["left", "right"]
 #: The mission spec that means "draw a mission per run".
 RANDOM = "random"
 
-#: Colour name → (OpenCV hue range, saturation floor), written as a user calibrates a palette:
-#: each range holds the hues the camera gives its mark over the whole range of randomised
-#: light (:data:`marknav.sim.world.LIGHTING_GAIN_RANGE`, every cast), after the detector's white
-#: balance, and the ranges do not overlap. The simulator paints a mark the middle of its range.
-#: Orange is wide and off-centre in what it holds: bright light clips its red channel, and the
-#: camera reads the paint of hue 14 anywhere from 12.6 (dim, warm) to 23.8 (bright, warm). The
+#: Colour name → (OpenCV hue range, saturation floor), written as a user calibrates a palette: each
+#: range holds the hues the camera gives its mark over the whole range of randomised light
+#: (``camera.lighting_gain`` of :mod:`marknav.sim.randomisation`, every cast), after the detector's
+#: white balance, and the ranges do not overlap. The simulator paints a mark the middle of its
+#: range. Orange is wide and off-centre in what it holds: bright light clips its red channel, and
+#: the camera reads the paint of hue 14 anywhere from 12.6 (dim, warm) to 23.8 (bright, warm). The
 #: saturation floor sits between what the room reaches in a mark's own hue (floors up to
-#: :data:`marknav.sim.scenery.FLOOR_SATURATION_RANGE`'s 160, +8 % grain) and what the marks
-#: read (≥ 230 at the 5th percentile in the dimmest, noisiest light): with a floor of 100, a
-#: near mark standing on a wood floor or carpet of its hue merged with it and was not found.
-#: ``tests/runs/test_random_mission.py`` measures both. The floors are for marks of full paint:
-#: a world's printed marks (``mark_saturation`` < 1) get floors scaled by the palest one's.
+#: ``room.floor_saturation``'s 160, +8 % grain) and what the marks read (≥ 230 at the 5th
+#: percentile in the dimmest, noisiest light): with a floor of 100, a near mark standing on a wood
+#: floor or carpet of its hue merged with it and was not found.
+#: ``tests/runs/evaluation/test_random_mission.py`` measures both. The floors are for marks of
+#: full paint: a world's printed marks (``mark_saturation`` < 1) get floors scaled by the palest
+#: one's.
 PALETTE: dict[str, tuple[tuple[int, int], int]] = {
     "red": ((166, 2), 180),
     "orange": ((3, 25), 180),
@@ -66,27 +71,29 @@ PALETTE: dict[str, tuple[tuple[int, int], int]] = {
     "blue": ((102, 128), 180),
     "purple": ((134, 162), 180),
 }
-COLOURS_RANGE = (2, 5)
-ROUTE_LENGTH_RANGE = (3, 12)
+# The drawn ranges are entries of the one table, marknav.sim.randomisation (``mission.*``).
+COLOURS_RANGE = counts("mission.colours")
+ROUTE_LENGTH_RANGE = counts("mission.route_length")
 REPEAT_PREVIOUS = 0.2
-RADIUS_RANGE_MM = (60.0, 100.0)
-CLEARANCE_RANGE_MM = (250.0, 450.0)
+RADIUS_RANGE_MM = bounds("mission.mark_radius")
+CLEARANCE_RANGE_MM = bounds("mission.clearance")
 MIN_GAP_MM = 45.0
-BYPASS_RANGE_MM = (700.0, 1200.0)
-APPROACH_SPEED_RANGE_MM_S = (150.0, 300.0)
+BYPASS_RANGE_MM = bounds("mission.bypass_distance")
+APPROACH_SPEED_RANGE_MM_S = bounds("mission.approach_speed")
 #: The simulator's own fit of the default camera (``marknav calibrate --sim``; slalom.yaml).
 SIM_FIT = (59385.0, -1.0013)
 SIM_FIT_RADIUS_MM = 100.0
 FOCAL_PX = 590.0
-RANGE_SCALE_ERROR = 0.25
-OFF_COURSE_RANGE = (0, 3)
+#: The range law's scale is off by up to this (``mission.range_scale``: 0.75-1.25).
+RANGE_SCALE_ERROR = bounds("mission.range_scale")[1] - 1.0
+OFF_COURSE_RANGE = counts("mission.off_course_marks")
 #: Off-course marks stand this far beside the course's axis.
-OFF_COURSE_LATERAL_MM = (1400.0, 2200.0)
+OFF_COURSE_LATERAL_MM = bounds("mission.off_course_lateral")
 #: ... and from every place the robot looks for a course mark of their colour, at least this
 #: factor farther (plus the margin) than that mark.
 OFF_COURSE_FARTHER = 1.3
 OFF_COURSE_MARGIN_MM = 500.0
-ROBOT_RADIUS_MM = worldmod.CREATE_RADIUS_MM
+ROBOT_RADIUS_MM = CREATE_RADIUS_MM
 
 
 @dataclass(frozen=True)
@@ -95,7 +102,7 @@ class RandomMission:
 
     seed: int
     mission: Mission
-    world: worldmod.World
+    world: World
     mission_doc: dict[str, Any]
     world_doc: dict[str, Any]
     range_kind: str  # "sim-fit" | "pinhole" | "fit×1.17" ...
@@ -131,19 +138,19 @@ def _range_model(rng: np.random.Generator, radius_mm: float) -> tuple[dict[str, 
         return {"model": "power", "a": round(a, 1), "b": b}, "sim-fit"
     if kind == 1:
         return {"model": "pinhole", "focal_px": FOCAL_PX}, "pinhole"
-    scale = round(float(rng.uniform(1.0 - RANGE_SCALE_ERROR, 1.0 + RANGE_SCALE_ERROR)), 3)
+    scale = round(float(rng.uniform(*bounds("mission.range_scale"))), 3)
     return {"model": "power", "a": round(a * scale, 1), "b": b}, f"fit×{scale:g}"
 
 
-def _off_course(rng: np.random.Generator, world: worldmod.World, route: list[str],
-                clearance_mm: float, radius_mm: float) -> list[worldmod.MarkSpec]:
+def _off_course(rng: np.random.Generator, world: World, route: list[str],
+                clearance_mm: float, radius_mm: float) -> list[MarkSpec]:
     marks = list(world.marks)
     start = world.robot.pose()
     fwd = (math.cos(start.theta), math.sin(start.theta))
     left = (-fwd[1], fwd[0])
     looks = [(start.x, start.y)] + [m.xy for m in marks[:-1]]  # where each waypoint is sought
     along_max = max((m.x_mm - start.x) * fwd[0] + (m.y_mm - start.y) * fwd[1] for m in marks)
-    out: list[worldmod.MarkSpec] = []
+    out: list[MarkSpec] = []
     for _ in range(int(rng.integers(OFF_COURSE_RANGE[0], OFF_COURSE_RANGE[1] + 1))):
         colour = route[int(rng.integers(len(route)))]
         for _try in range(60):
@@ -159,7 +166,7 @@ def _off_course(rng: np.random.Generator, world: worldmod.World, route: list[str
                     ok = math.dist(looks[w], xy) >= OFF_COURSE_FARTHER * d_course + \
                         OFF_COURSE_MARGIN_MM
             if ok:
-                out.append(worldmod.MarkSpec(colour=colour, x_mm=round(xy[0], 1),
+                out.append(MarkSpec(colour=colour, x_mm=round(xy[0], 1),
                                              y_mm=round(xy[1], 1), radius_mm=radius_mm))
                 break
     return out
@@ -191,7 +198,7 @@ def random_mission(seed: int) -> RandomMission:
     }
     text = yaml.safe_dump(mission_doc, sort_keys=False)
     mission = parse_mission(load_yaml_text(text, f"<random mission {seed}>"))
-    base = worldmod.generate_world(
+    base = generate_world(
         route, seed=seed, clearance_mm=clearance, radius_mm=radius, conditions="randomised",
         bypass_distance_mm=bypass, sides=[sides[c] for c in route],
         half_fov_deg=mission.camera.hfov_deg / 2.0)
@@ -207,8 +214,8 @@ def random_mission(seed: int) -> RandomMission:
         text = yaml.safe_dump(mission_doc, sort_keys=False)
         mission = parse_mission(load_yaml_text(text, f"<random mission {seed}>"))
     extra = _off_course(rng, base, route, clearance, radius)
-    world = worldmod.World.model_validate(
-        {**{k: getattr(base, k) for k in worldmod.World.model_fields},
+    world = World.model_validate(
+        {**{k: getattr(base, k) for k in World.model_fields},
          "marks": base.marks + tuple(extra)})
     world_doc = world.model_dump(mode="json")
     return RandomMission(seed, mission, world, mission_doc, world_doc, range_kind)

@@ -341,6 +341,7 @@ def plot_trials(result: TuneResult, params: Sequence[Param], out: Path) -> None:
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
+        from matplotlib.ticker import MaxNLocator
     except ImportError:
         raise InputError("the plot needs matplotlib: pip install 'marknav[plot]'",
                          field="--plot") from None
@@ -349,6 +350,7 @@ def plot_trials(result: TuneResult, params: Sequence[Param], out: Path) -> None:
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11.0, 4.4), dpi=100)
     ax.plot(n, [100 * t.success_rate for t in ts], "o", color="tab:green", label="success %")
     ax.set_xlabel("trial [number]")
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))  # trials are whole numbers
     ax.set_ylabel("success rate [%]", color="tab:green")
     ax.set_ylim(-5, 105)
     axt = ax.twinx()

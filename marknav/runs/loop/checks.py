@@ -28,7 +28,8 @@ from marknav.core.inputfile import stat_path
 from marknav.core.yamlio import load_yaml_file
 from marknav.missions.overrides import Override, apply_overrides, relabel
 from marknav.missions.schema import Marks, Mission, Sim, load_mission
-from marknav.sim import world as worldmod
+from marknav.sim.world.course import check_against_palette, check_course
+from marknav.sim.world.schema import load_world
 from marknav.vision.palette import ColourRange
 
 __all__ = ["check_mission", "check_world", "checked_mission", "loaded_mission_problems",
@@ -181,13 +182,13 @@ def _world_problems(
     palette = [ColourRange(name, spec.hue[0], spec.hue[1]) for name, spec in marks.colours.items()]
     errors: list[InputError] = []
     try:
-        loaded = worldmod.load_world(world_path)
+        loaded = load_world(world_path)
     except InputErrors as exc:
         return list(exc.errors)
     except InputError as exc:
         return [exc]
     try:
-        worldmod.check_against_palette(loaded, palette, str(world_path))
+        check_against_palette(loaded, palette, str(world_path))
     except InputErrors as exc:
         errors.extend(exc.errors)
     except InputError as exc:
@@ -200,7 +201,7 @@ def _world_problems(
             errors.append(locate(("route", i), f"no {colour} mark in the world {world_path}"))
     if not errors:  # the world's course: one mark per waypoint, of the waypoint's colour
         try:
-            worldmod.check_course(loaded, route, str(world_path))
+            check_course(loaded, route, str(world_path))
         except InputErrors as exc:
             errors.extend(exc.errors)
         except InputError as exc:

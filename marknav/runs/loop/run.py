@@ -53,7 +53,9 @@ class RunRequest:
     events_path: Path | None = None
     plot_path: Path | None = None
     seed: int | None = None
-    realtime: bool = False
+    #: Pace a simulated clock at wall-clock speed; ``None``: when the live view is on a
+    #: terminal (a person watching), else as fast as it goes.
+    realtime: bool | None = False
     max_time_s: float | None = None
     #: Filled in by :func:`execute`: the files it wrote, and why others could not be written.
     written: list[Path] = field(default_factory=list)
@@ -62,12 +64,18 @@ class RunRequest:
     generate_world: bool = False  # ignore the mission's sim.world: generate one from the seed
     frames_hz: float | None = None  # save camera frames (JPEG) beside the event log this often
     viewer: bool = False  # stream the run to a Rerun viewer (the ``viewer`` extra)
-    record_path: Path | None = None  # save a Rerun recording (.rrd)
+    record_path: Path | None = None  # save the run as ROS 2 messages in MCAP (rosbag2 folder)
+    record_hz: float | None = None  # camera images a second in the recording (None: 5)
+    record_quality: int | None = None  # their JPEG quality 0..100 (None: 70)
+    foxglove_port: int | None = None  # serve the recording's channels live (0: a free port)
+    #: Set by :func:`execute` when ``foxglove_port`` is given: the port the server listens on.
+    foxglove_bound: int | None = None
     world_model: Any = None  # a World built in memory (a random mission's): used as it is
     #: Set once :func:`execute` (or :func:`write_interrupted`) began writing the report and the
     #: log: a signal that ends the command after that needs no other report.
     finishing: bool = False
     engine: str | None = None  # simulator engine (None: the mission's sim.engine, else builtin)
+    groot2: tuple[str, int] | None = None  # serve the live tree to Groot2 on (host, port)
 
 
 @dataclass
@@ -101,23 +109,25 @@ def _world_for(mission: Mission, req: RunRequest, seed: int) -> Any:
 
 
 def _base_world(mission: Mission, req: RunRequest, seed: int) -> Any:
-    from marknav.sim import world as worldmod
+    from marknav.sim.world.course import check_against_palette, check_course
+    from marknav.sim.world.generate import generate_world
+    from marknav.sim.world.schema import load_world
 
     if req.world_model is not None:
         world = req.world_model
-        worldmod.check_against_palette(world, mission.palette())
-        worldmod.check_course(world, mission.route)
+        check_against_palette(world, mission.palette())
+        check_course(world, mission.route)
         return world.with_mark_radius(mission.marks.radius_mm)
     path = None if req.generate_world else req.world
     if (path is None and not req.generate_world and mission.sim is not None
             and mission.sim.world is not None):
         path = str(mission.sim.world)
     if path is not None:
-        world = worldmod.load_world(path)
-        worldmod.check_against_palette(world, mission.palette(), path)
-        worldmod.check_course(world, mission.route, path)
+        world = load_world(path)
+        check_against_palette(world, mission.palette(), path)
+        check_course(world, mission.route, path)
     else:
-        world = worldmod.generate_world(
+        world = generate_world(
             mission.route, seed=seed, clearance_mm=mission.navigation.clearance_mm,
             radius_mm=mission.marks.radius_mm,
             conditions="randomised" if req.randomise else "default",
@@ -255,7 +265,8 @@ def execute(req: RunRequest) -> RunResult:
             rate_hz=mission.control.rate_hz,
             max_time_s=(req.max_time_s if req.max_time_s is not None
                         else default_max_time_s(mission)),
-            realtime=req.realtime, sleep=req.robot != "sim", observer=recorder,
+            realtime=paced(req, recorder), sleep=req.robot != "sim", observer=recorder,
+            visitors=[recorder.state.ticked] if recorder is not None else [],
         )
         # A simulated run is lock-step on small arrays: one OpenCV thread is as fast and
         # leaves the other core free (:mod:`marknav.core.cvthreads`).
@@ -377,25 +388,85 @@ def _finish(req: RunRequest, mission: Mission, env: Environment | None,
             raise failure
 
 
+def paced(req: RunRequest, recorder: Recorder | None) -> bool:
+    """Whether a simulated run goes at wall-clock speed: as asked, else when the live view
+    draws it on a terminal (a 41 s mission lasts 41 s on screen, not the 3 s it computes in)."""
+    from marknav.runs.views.display import LiveView
+
+    if req.realtime is not None:
+        return req.realtime
+    return recorder is not None and isinstance(recorder.view, LiveView)
+
+
 def _recorder(req: RunRequest, root: py_trees.behaviour.Behaviour, env: Environment,
               events: EventLog) -> Recorder | None:
     """The run log's recorder, with the live view and the Rerun recording when asked for."""
     from marknav.runs.views.display import make_view
 
     sinks: list[Any] = []
-    if req.viewer or req.record_path is not None:
+    if req.viewer:
         from marknav.runs.views.viewer import RECORD_FRAMES_HZ, RerunSink
 
-        sinks.append(RerunSink(req.mission, getattr(env, "world", None), spawn=req.viewer,
-                               path=req.record_path,
+        sinks.append(RerunSink(req.mission, getattr(env, "world", None), spawn=True,
                                frames_hz=req.frames_hz or RECORD_FRAMES_HZ))
-    view = make_view(req.out, req.tree_style, title=f"marknav run {req.mission.name}")
+    recording = _ros2_recording(req, root, env)
+    if recording is not None:
+        sinks.append(recording)
+    if req.groot2 is not None:
+        sinks.append(_groot2_server(req, root))
+    title = f"marknav run {req.mission.name}"
+    if req.realtime is None and req.robot == "sim":
+        title += " · real time (--fast: full speed)"
+    view = make_view(req.out, req.tree_style, title=title)
     if view is None and not sinks and events.path is None:
         return None
     mission = req.mission
     return Recorder(root, env, events, mission=mission, view=view, sinks=sinks,
                     frames_hz=req.frames_hz,
                     finish=lambda report: _fill_ground_truth(mission, env, report))
+
+
+def _ros2_recording(req: RunRequest, root: py_trees.behaviour.Behaviour,
+                    env: Environment) -> Any:
+    """The MCAP recording and the live Foxglove server, when asked for (else None); they start
+    (in the recording's own process) before the loop does."""
+    from marknav.runs.records.mcap_recording import (
+        JPEG_QUALITY,
+        RECORD_HZ,
+        McapFile,
+        OutputSpec,
+        Ros2Recording,
+    )
+    from marknav.runs.records.tree_state import TreeState
+
+    outputs: list[OutputSpec] = []
+    if req.foxglove_port is not None:
+        from marknav.runs.views.foxglove_live import FoxgloveLive
+
+        outputs.append((FoxgloveLive, {"port": req.foxglove_port}))
+    if req.record_path is not None:
+        outputs.append((McapFile, {"path": req.record_path}))
+    if not outputs:
+        return None
+    recording = Ros2Recording(
+        req.mission, getattr(env, "world", None), outputs, tree=TreeState.of_tree(root),
+        record_hz=req.record_hz or RECORD_HZ,
+        jpeg_quality=JPEG_QUALITY if req.record_quality is None else req.record_quality)
+    req.foxglove_bound = recording.port
+    return recording
+def _groot2_server(req: RunRequest, root: py_trees.behaviour.Behaviour) -> Any:
+    """Groot2's server for the live tree (``--groot2``); a port in use is the user's input."""
+    import zmq
+
+    from marknav.runs.views.groot2 import Groot2Server
+
+    assert req.groot2 is not None
+    host, port = req.groot2
+    try:
+        return Groot2Server.for_tree(root, req.mission.name, host=host, port=port)
+    except zmq.ZMQError as exc:
+        raise InputError(f"cannot serve Groot2 on {host}:{port} (and {port + 1}): {exc}",
+                         field="--groot2") from None
 
 
 def _classify(root: py_trees.behaviour.Behaviour) -> tuple[bool, str]:

@@ -17,10 +17,11 @@ import logging
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import py_trees
+import py_trees.visitors
 from py_trees.common import Status
 
 from marknav.core import signals
@@ -92,6 +93,8 @@ class RunOptions:
     #: Watches every tick (the run log, the live view, the viewer): ``tick(now, overruns)``
     #: after each tick, ``finish(report)`` before the ``end`` record.
     observer: TickObserver | None = None
+    #: py_trees visitors added to the tree (the recorder's: which nodes each tick reached).
+    visitors: list[py_trees.visitors.VisitorBase] = field(default_factory=list)
 
 
 
@@ -158,6 +161,8 @@ def run_tree(
     ``classify(root)`` says why a failed tree failed: ``(aborted, reason)``.
     """
     tree = py_trees.trees.BehaviourTree(root)
+    for visitor in options.visitors:
+        tree.add_visitor(visitor)
     observer = options.observer
     period = 1.0 / options.rate_hz
     tick_times: list[float] = []

@@ -39,10 +39,11 @@ from marknav.planning.pose_history import interpolate_pose
 from marknav.robot.driver import CreateDriver
 from marknav.robot.robot import Robot
 from marknav.runs.metrics.truth import MarkTruth, course_truth
-from marknav.sim import world as worldmod
 from marknav.sim.builtin_camera import CameraConfig, SimCamera
 from marknav.sim.protocol_createsim import register, unregister
 from marknav.sim.simulated_create import Body, SimulatedCreate
+from marknav.sim.world.contacts import bumps, contacts, push_out
+from marknav.sim.world.schema import CREATE_RADIUS_MM, FaultEvent, World
 from marknav.vision.palette import Palette
 
 if TYPE_CHECKING:
@@ -111,13 +112,13 @@ class SimEnvironment:
 
     def __init__(
         self,
-        world: worldmod.World,
+        world: World,
         palette: Palette,
         *,
         model: str = "create2",
         camera: CameraConfig | None = None,
         seed: int = 0,
-        robot_radius_mm: float = worldmod.CREATE_RADIUS_MM,
+        robot_radius_mm: float = CREATE_RADIUS_MM,
         command_timeout_s: float = 0.3,
         sensor_timeout_s: float = 0.2,
         wheel_base_mm: float | None = None,
@@ -160,7 +161,7 @@ class SimEnvironment:
             ground_fn=self._ground if world.patches else None,
         )
         self._events = sorted(world.events, key=lambda e: e.t_s)
-        self._active: list[tuple[float, worldmod.FaultEvent]] = []  # (end time, event)
+        self._active: list[tuple[float, FaultEvent]] = []  # (end time, event)
         self._url = register(self.create)
         self.driver = CreateDriver(
             self._url, model=model, clock=self.clock, command_timeout_s=command_timeout_s,
@@ -255,7 +256,7 @@ class SimEnvironment:
         if changed:
             self._set_faults([ev for _, ev in self._active])
 
-    def _set_faults(self, active: list[worldmod.FaultEvent]) -> None:
+    def _set_faults(self, active: list[FaultEvent]) -> None:
         def on(fault: str, side: str) -> bool:
             return any(e.fault == fault and e.side in (side, "both") for e in active)
 
@@ -283,21 +284,21 @@ class SimEnvironment:
         r = self.robot_radius_mm
         # The bumper stays pressed while the robot rests against the obstacle (within its
         # travel), so the safety layer sees the bump until the robot has backed away.
-        pressed = worldmod.contacts(self.world, pose, robot_radius_mm=r + BUMPER_TRAVEL_MM)
+        pressed = contacts(self.world, pose, robot_radius_mm=r + BUMPER_TRAVEL_MM)
         # Anything the robot's own disc touches is also within its bumper's travel, so when
         # nothing is (most steps) there is nothing to push out of either.
         if pressed:
-            found = worldmod.contacts(self.world, pose, robot_radius_mm=r)
+            found = contacts(self.world, pose, robot_radius_mm=r)
             if any(c.depth_mm > 0.5 for c in found):
                 # Touching is allowed, passing through is not: put the robot back outside.
-                pose = worldmod.push_out(self.world, pose, robot_radius_mm=r)
+                pose = push_out(self.world, pose, robot_radius_mm=r)
                 self.create.set_pose(pose)
-                pressed = worldmod.contacts(self.world, pose,
+                pressed = contacts(self.world, pose,
                                             robot_radius_mm=r + BUMPER_TRAVEL_MM)
         held_left, held_right = self._held_bump  # a bump event: pinned, not a collision
         left, right = held_left, held_right
         if pressed:
-            b = worldmod.bumps(pressed)
+            b = bumps(pressed)
             left, right = left or b.left, right or b.right
             if not self._in_contact:
                 c = pressed[0]
@@ -348,7 +349,7 @@ class SimEnvironment:
 
 def waypoint_truth(
     truth: GroundTruth,
-    world: worldmod.World,
+    world: World,
     route: list[str],
     sides: list[str],
 ) -> list[MarkTruth]:

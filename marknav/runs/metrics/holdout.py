@@ -217,7 +217,8 @@ def _synthetic(n: int) -> list[Frame]:
 def _simulator(n: int) -> list[Frame]:
     from marknav.planning.kinematics import Pose
     from marknav.sim.builtin_camera import CameraConfig, project_marks, render
-    from marknav.sim.world import Conditions, generate_world
+    from marknav.sim.world.generate import generate_world
+    from marknav.sim.world.schema import Conditions
 
     config = CameraConfig()
     rng = np.random.default_rng([11, 0x514])
@@ -262,7 +263,7 @@ def _mujoco(n: int) -> list[Frame]:
     from marknav.planning.kinematics import Pose
     from marknav.sim.builtin_camera import CameraConfig, project_marks
     from marknav.sim.lens import Lens
-    from marknav.sim.world import generate_world
+    from marknav.sim.world.generate import generate_world
 
     if n <= 0:
         return []

@@ -44,7 +44,7 @@ import numpy as np
 import numpy.typing as npt
 
 from marknav.runs.metrics.passes import min_clearance_mm, pass_crossings
-from marknav.sim import world as worldmod
+from marknav.sim.world.schema import World
 
 __all__ = [
     "PASSED",
@@ -158,7 +158,7 @@ class _Crossings:
     """The crossings of each mark's pass line by the resampled path, computed once per mark."""
 
     def __init__(self, ts: npt.NDArray[np.float64], p: npt.NDArray[np.float64],
-                 world: worldmod.World) -> None:
+                 world: World) -> None:
         self.ts, self.p, self.world = ts, p, world
         self._cache: dict[int, list[_Cross]] = {}
 
@@ -208,7 +208,7 @@ def _pass_times(marks: Sequence[int], crossings: _Crossings, t_start: float,
     return passes, order
 
 
-def _rival(world: worldmod.World, crossings: _Crossings, w: int, marks: Sequence[int],
+def _rival(world: World, crossings: _Crossings, w: int, marks: Sequence[int],
            closest: _Cross, lo: float, hi: float) -> str | None:
     """Why the pass of waypoint ``w`` was of another mark of its colour passed closer inside
     its window (``None``: none was). The adjacent waypoints' own marks are not rivals: their
@@ -229,7 +229,7 @@ def _rival(world: worldmod.World, crossings: _Crossings, w: int, marks: Sequence
     return None
 
 
-def _judge(world: worldmod.World, crossings: _Crossings, w: int, marks: Sequence[int],
+def _judge(world: World, crossings: _Crossings, w: int, marks: Sequence[int],
            sides: Sequence[str], passes: Sequence[float | None], order: Sequence[str],
            t_start: float, t_end: float) -> MarkTruth:
     """Waypoint ``w``'s verdict, within the window between its neighbours' passes."""
@@ -264,7 +264,7 @@ def _judge(world: worldmod.World, crossings: _Crossings, w: int, marks: Sequence
 def course_truth(
     t: Sequence[float] | npt.NDArray[np.float64],
     xy: Sequence[tuple[float, float]] | npt.NDArray[np.float64],
-    world: worldmod.World,
+    world: World,
     route: Sequence[str],
     sides: Sequence[str],
     course: Sequence[int] | None = None,

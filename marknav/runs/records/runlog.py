@@ -27,11 +27,13 @@ Records (``t``: seconds since the run started, never decreasing; ``kind`` names 
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import logging
 import math
 import stat
+import time
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -44,6 +46,7 @@ from marknav.behaviours import keys
 from marknav.core import signals
 from marknav.core.errors import InputError
 from marknav.core.inputfile import MAX_LOG_BYTES, read_bytes, stat_path
+from marknav.runs.records.btcpp import tree_xml
 from marknav.runs.records.report import EventLog, RunReport
 from marknav.runs.records.tree_state import SUCCESS, TreeState
 
@@ -122,6 +125,7 @@ class Recorder:
         self._last_frame: dict[int, int] = {}
         self._frame_times: deque[float] = deque(maxlen=40)
         self._last_saved: float | None = None
+        self._frames_lost = False  # a frame could not be written: no more are tried
         self._started = False
         self.logging = events.path is not None or bool(self.sinks)
         #: What :meth:`show` draws and sends: the last tick's panel, record and frames.
@@ -136,7 +140,7 @@ class Recorder:
         if not self._started:
             self._started = True
             self._begin(now)
-        changes = self.state.capture()
+        changes = self.state.capture(now)
         frames = self._frames(now)
         panel = self.panel(now, overruns)
         record: dict[str, Any] | None = None
@@ -165,11 +169,8 @@ class Recorder:
         wheels."""
         if self._shown is None:
             return
-        now, panel, record, frames = self._shown
-        self._shown = None
-        if record is not None:
-            for sink in self.sinks:
-                sink.tick(now, record, frames, self.state)
+        panel = self._shown[1]
+        self._feed_sinks()
         if self.view is not None:
             self.view.update(self.state, panel)
 
@@ -177,6 +178,9 @@ class Recorder:
         """Before the runner's ``end`` record: the report, with ground truth when there is some."""
         if self.view is not None:
             self.view.close()
+        # A signal between a tick's records and its showing: the recording still gets it (a
+        # sink that already had it, cut short inside, knows the tick by its number).
+        self._feed_sinks()
         extra = self._finish(report) if self._finish is not None else {}
         if self.logging:
             self.events.write(report.sim_time_s, "report", report=report.to_dict(), **extra)
@@ -185,6 +189,16 @@ class Recorder:
                 sink.close()
             except Exception:
                 log.exception("closing %s failed", sink)
+
+    def _feed_sinks(self) -> None:
+        """The last tick to the sinks, once: ``_shown`` is cleared only when all have it."""
+        if self._shown is None:
+            return
+        now, _panel, record, frames = self._shown
+        if record is not None:
+            for sink in self.sinks:
+                sink.tick(now, record, frames, self.state)
+        self._shown = None
 
     # -- the status panel --------------------------------------------------------------------
     def panel(self, now: float, overruns: int) -> dict[str, Any]:
@@ -199,10 +213,17 @@ class Recorder:
             if target is not None:
                 out["target"] = f"{target.label}, pass on its {target.side}"
                 s = target.sighting
-                if s is not None:
+                if s is None:
+                    out["target"] += (" (out of view, remembered)" if target.remembered
+                                      else " (not in view)")
+                else:
                     out["range_mm"] = round(s.range_mm, 0)
                     out["bearing_deg"] = round(math.degrees(s.bearing_rad), 1)
-                    out["seen_s_ago"] = round(max(0.0, now - (s.t - (self._t0 or 0.0))), 2)
+                    # as Seen? counts it: 0 when the newest frame shows it (capture times
+                    # on both sides, so the camera's latency is no age)
+                    frame_now = bb.get(keys.FRAME) if bb.exists(keys.FRAME) else None
+                    out["seen_s_ago"] = round(keys.unseen_s(s, frame_now,
+                                                            now + (self._t0 or 0.0)), 2)
         safety = getattr(robot, "safety", None)
         wheels = getattr(safety, "wheels", None)
         if wheels is not None:
@@ -229,6 +250,9 @@ class Recorder:
         if not self.logging:
             return
         info: dict[str, Any] = {"tree": self.state.structure()}
+        # Groot2's view of the same tree, and the wall-clock start: 'replay --btlog' needs both.
+        info["btcpp_xml"] = tree_xml(self.root, getattr(self.mission, "name", "MainTree"))
+        info["epoch_us"] = round((time.time() - now) * 1_000_000)
         m = self.mission
         if m is not None:
             from marknav.sim.builtin_camera import mark_bgr
@@ -308,20 +332,30 @@ class Recorder:
         return out
 
     def _save_image(self, now: float, record: dict[str, Any], image: Any) -> None:
-        if self.frames_hz is None or self.events.path is None:
+        if self.frames_hz is None or self.events.path is None or self._frames_lost:
             return
         if self._last_saved is not None and now - self._last_saved < 1.0 / self.frames_hz - 1e-9:
             return
         import cv2
 
         folder = self.events.path.parent / (self.events.path.name.split(".")[0] + ".frames")
-        folder.mkdir(parents=True, exist_ok=True)
         name = f"{record['index']:06d}.jpg"
         ok, data = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 85])
-        if ok:
+        if not ok:
+            return
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
             (folder / name).write_bytes(data.tobytes())
-            record["image"] = f"{folder.name}/{name}"
-            self._last_saved = now
+        except OSError as exc:  # a full disk, a quota, a removed folder: the run goes on
+            with contextlib.suppress(OSError):  # half a file is no frame
+                (folder / name).unlink(missing_ok=True)
+            # Said once; the frames are a by-product of the run: losing them must not end it.
+            log.warning("cannot save camera frames in %s (%s): no more frames are saved; the "
+                        "run goes on", folder, exc.strerror or exc)
+            self._frames_lost = True
+            return
+        record["image"] = f"{folder.name}/{name}"
+        self._last_saved = now
 
 
 # -- reading a log back ----------------------------------------------------------------------

@@ -16,8 +16,15 @@ them, ASCII otherwise (and in dot files, whose fonts may lack the glyphs).
 
 The live drawing is compact: a composite that is not running is folded to one line (a finished
 waypoint shows what it ended with), the running branch is open, and runs of folded siblings are
-grouped when the tree would not fit ``max_rows``. A node that was not ticked shows no message,
-so nothing stale stays on screen.
+grouped when the tree would not fit ``max_rows``; if it still does not fit, the finished
+siblings before the running branch and the idle ones after it are folded into one line each,
+from the root down, so the running node is always on screen. An idle node shows no message.
+
+Every message on screen is current or says when it is from: :class:`TickedNodes` (a py_trees
+visitor the runner adds) sees which nodes the last tick reached, and a node it did not reach
+(``SelectTarget`` under a sequence with memory that has moved on to its next child, a finished
+waypoint) keeps its message prefixed with the time it was last ticked (``at t=9.90 s: ...``):
+its words describe that moment, not this one.
 
 :func:`dot_tree` writes Graphviz dot with node ids ``n0, n1, ...`` and the same labels as the
 text (ASCII). py_trees' ``dot_tree`` uses the names as node ids, so a ``:`` in one ("Waypoint 1:
@@ -28,11 +35,13 @@ green").
 
 from __future__ import annotations
 
+import uuid
 from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any
 
 import py_trees
+import py_trees.visitors
 from py_trees.behaviour import Behaviour
 
 RUNNING, SUCCESS, FAILURE, INVALID = "RUNNING", "SUCCESS", "FAILURE", "INVALID"
@@ -76,15 +85,53 @@ def has_memory(node: Behaviour) -> bool:
         getattr(node, "memory", False))
 
 
-def legend(style: str = "unicode") -> str:
-    """One line explaining the symbols."""
+def legend_groups(style: str = "unicode", *, short: bool = False) -> list[str]:
+    """The legend's parts (statuses, kinds, memory, folding), each kept on one line;
+    ``short``: the memory mark without its explanation."""
     s, k = STATUS_SYMBOLS[style], KIND_SYMBOLS[style]
     status = "  ".join(f"{s[v].strip()} {w}" for v, w in (
         (RUNNING, "running"), (SUCCESS, "success"), (FAILURE, "failure"), (INVALID, "idle")))
     kinds = "  ".join(f"{k[v].strip()} {v}"
                       for v in ("sequence", "selector", "parallel", "decorator"))
-    return (f"{status}  |  {kinds}  |  {MEMORY.strip()} memory: resumes its running child  |  "
-            f"{FOLD[style]} folded")
+    memory = f"{MEMORY.strip()} memory" + ("" if short else ": resumes its running child")
+    return [status, kinds, memory, f"{FOLD[style]} folded"]
+
+
+def legend(style: str = "unicode", width: int | None = None) -> str:
+    """The symbols explained: one line, or (``width``) lines of at most ``width`` characters,
+    shortened to fit where it helps; a part wider than ``width`` alone on its line."""
+    full = "  |  ".join(legend_groups(style))
+    if width is None or len(full) <= width:
+        return full
+    lines: list[str] = []
+    for part in legend_groups(style, short=True):
+        if lines and len(lines[-1]) + len("  |  ") + len(part) <= width:
+            lines[-1] += "  |  " + part
+        else:
+            lines.append(part)
+    return "\n".join(lines)
+
+
+class TickedNodes(py_trees.visitors.VisitorBase):
+    """The nodes the last tick reached (py_trees visits exactly the ticked ones); add it to the
+    ``BehaviourTree`` with ``add_visitor``. ``ticks`` counts the ticks it saw."""
+
+    def __init__(self) -> None:
+        super().__init__(full=False)
+        self.ids: set[uuid.UUID] = set()
+        self.ticks = 0
+
+    def initialise(self) -> None:
+        self.ids = set()
+        self.ticks += 1
+
+    def run(self, behaviour: Behaviour) -> None:
+        self.ids.add(behaviour.id)
+
+
+def dated(message: str, t: float) -> str:
+    """A message from an earlier tick, with the run time it was last current."""
+    return f"at t={t:.2f} s: {message}"
 
 
 @dataclass
@@ -100,6 +147,9 @@ class TreeState:
     #: per node: a composite with memory (run logs written before it was kept: all False)
     memory: list[bool] = field(default_factory=list)
     _nodes: list[py_trees.behaviour.Behaviour] = field(default_factory=list, repr=False)
+    #: Which nodes each tick reached (a live tree's; the runner adds it to the tree).
+    ticked: TickedNodes = field(default_factory=TickedNodes, repr=False)
+    _last_ticked: list[float | None] = field(default_factory=list, repr=False)
 
     def __post_init__(self) -> None:
         n = len(self.names)
@@ -110,6 +160,7 @@ class TreeState:
         if not self.memory:
             self.memory = [False] * n
         self.children = [[] for _ in range(n)]
+        self._last_ticked = [None] * n
         for i, p in enumerate(self.parents):
             if p >= 0:
                 self.children[p].append(i)
@@ -135,16 +186,25 @@ class TreeState:
         return cls(names=list(d["names"]), kinds=list(d["kinds"]), parents=list(d["parents"]),
                    memory=[bool(m) for m in d.get("memory", ())])
 
-    def capture(self) -> dict[str, list[str]]:
+    def capture(self, now: float | None = None) -> dict[str, list[str]]:
         """Read the live tree; return ``{index: [status, message]}`` for the nodes that changed.
 
-        An idle (INVALID) node's message is recorded as empty: it is not current.
+        An idle (INVALID) node's message is recorded as empty: it is not current. With the run
+        time ``now`` and :attr:`ticked` on the tree, the message of a node this tick did not
+        reach is :func:`dated` with the last tick that did.
         """
         changed: dict[str, list[str]] = {}
         status, message = self.status, self.message
+        reached = self.ticked.ids if now is not None and self.ticked.ticks else None
         for i, node in enumerate(self._nodes):
             st = node.status.value
             msg = node.feedback_message if st != INVALID else ""
+            if reached is not None:
+                last = self._last_ticked[i]
+                if node.id in reached:
+                    self._last_ticked[i] = now
+                elif msg and last is not None:
+                    msg = dated(msg, last)
             if st != status[i] or msg != message[i]:
                 status[i], message[i] = st, msg
                 changed[str(i)] = [st, msg]
@@ -189,18 +249,57 @@ class TreeState:
               full: bool = False) -> list[tuple[str, str]]:
         """The drawing as ``(text, status)`` rows, at most ``max_rows`` of them (``status`` is
         :data:`HANDLED` for a failure its selector is handling); ``full``: every node, none
-        folded, however many rows."""
+        folded, however many rows.
+
+        Too many rows: runs of folded siblings are grouped; then, along the running branch
+        from the root down, the finished composites before it are folded into one line, then
+        the idle siblings after it, then every sibling before it (:data:`_FOLDINGS`); what
+        still does not fit is cut from the top, the running branch kept."""
         if not self.names:
             return []
         if full:
-            return self._draw(style, group=False, full=True)
+            return [(t, st) for t, st, _ in self._draw(style, group=False, full=True)]
         rows = self._draw(style, group=False)
         if len(rows) > max_rows:
             rows = self._draw(style, group=True)
+        spine = self._spine()
+        folded: dict[int, set[str]] = {}
+        for how in _FOLDINGS:
+            for node in spine[:-1]:
+                if len(rows) <= max_rows:
+                    break
+                folded.setdefault(node, set()).add(how)
+                rows = self._draw(style, group=True, folded=folded)
         if len(rows) > max_rows:
-            hidden = len(rows) - (max_rows - 1)
-            rows = [*rows[:max_rows - 1], (f"… {hidden} more rows", INVALID)]
-        return rows
+            return self._cut(rows, max_rows, set(spine))
+        return [(t, st) for t, st, _ in rows]
+
+    def _spine(self) -> list[int]:
+        """The running branch: the root and, at each level, its first running child."""
+        path = [0]
+        while True:
+            running = [c for c in self.children[path[-1]] if self.status[c] == RUNNING]
+            if not running:
+                return path
+            path.append(running[0])
+
+    @staticmethod
+    def _cut(rows: list[tuple[str, str, int]], max_rows: int,
+             spine: set[int]) -> list[tuple[str, str]]:
+        """At most ``max_rows`` rows: rows off the running branch dropped from the top, how
+        many said on the first line."""
+        drop = len(rows) - (max_rows - 1)
+        out: list[tuple[str, str]] = []
+        dropped = 0
+        for text, st, node in rows:
+            if dropped < drop and node not in spine:
+                dropped += 1
+                continue
+            out.append((text, st))
+        if dropped < drop:  # the running branch alone is longer than the screen
+            hidden = len(out) - (max_rows - 1)
+            return [*out[:max_rows - 1], (f"… {hidden} more rows", INVALID)]
+        return [(f"… {dropped} rows not shown", INVALID), *out]
 
     def text(self, *, style: str = "unicode", max_rows: int = 25, full: bool = False) -> str:
         return "\n".join(t for t, _ in self.lines(style=style, max_rows=max_rows, full=full))
@@ -225,30 +324,39 @@ class TreeState:
             st = HANDLED  # drawn dim: the selector goes on with its next child
         return (head + (dash + msg if msg else ""), st)
 
-    def _draw(self, style: str, *, group: bool, full: bool = False) -> list[tuple[str, str]]:
-        rows: list[tuple[str, str]] = []
+    def _draw(self, style: str, *, group: bool, full: bool = False,
+              folded: dict[int, set[str]] | None = None) -> list[tuple[str, str, int]]:
+        """Rows as (text, status, node index; -1 for a line standing for several nodes)."""
+        rows: list[tuple[str, str, int]] = []
+        folds = folded or {}
 
         def walk(i: int, depth: int) -> None:
             finished = self.status[0] in (SUCCESS, FAILURE)
             open_ = (full or i == 0 or (self.children[i] and self.status[i] == RUNNING)
                      or (finished and depth == 1 and len(self.children[i]) > 2))
-            rows.append(self._line(i, depth, style, folded=bool(self.children[i]) and not open_))
+            rows.append((*self._line(i, depth, style,
+                                     folded=bool(self.children[i]) and not open_), i))
             if not open_:
                 return
+            groups = self._folds(i, folds.get(i, set()))
+            hidden = {c for g in groups for c in g}
             kids = self.children[i]
             k = 0
             while k < len(kids):
                 c = kids[k]
+                if c in hidden:
+                    rows.extend(self._group_line(g, depth + 1, style) for g in groups
+                                if g[0] == c)
+                    k += 1
+                    continue
                 if group and self.children[c] and self.status[c] != RUNNING:
                     run = [c]
                     while (k + len(run) < len(kids) and self.children[kids[k + len(run)]]
+                           and kids[k + len(run)] not in hidden
                            and self.status[kids[k + len(run)]] == self.status[c]):
                         run.append(kids[k + len(run)])
                     if len(run) > 2:
-                        st = self.status[c]
-                        rows.append((f"{'  ' * (depth + 1)}{STATUS_SYMBOLS[style][st]} "
-                                     f"{len(run)} × {FOLD[style]} {self.names[run[0]]} … "
-                                     f"{self.names[run[-1]]}", st))
+                        rows.append(self._group_line(run, depth + 1, style))
                         k += len(run)
                         continue
                 walk(c, depth + 1)
@@ -256,6 +364,41 @@ class TreeState:
 
         walk(0, 0)
         return rows
+
+    def _folds(self, i: int, hows: set[str]) -> list[list[int]]:
+        """The groups of children of ``i`` that ``hows`` (:data:`_FOLDINGS`) fold into one line
+        each: siblings before its running child, siblings after it."""
+        kids = self.children[i]
+        running = [k for k, c in enumerate(kids) if self.status[c] == RUNNING]
+        if not hows or not running:
+            return []
+        before, after = kids[:running[0]], kids[running[0] + 1:]
+        if "before" in hows:
+            first = list(before)
+        elif "done" in hows:
+            first = [c for c in before
+                     if self.children[c] and self.status[c] in (SUCCESS, FAILURE)]
+        else:
+            first = []
+        second = list(after) if "after" in hows else []
+        return [g for g in (first, second) if len(g) >= _MIN_FOLD]
+
+    def _group_line(self, nodes: list[int], depth: int,
+                    style: str) -> tuple[str, str, int]:
+        """One line for ``nodes`` (siblings): how many, their status, the first and last."""
+        st = self.status[nodes[0]]
+        same = all(self.status[n] == st for n in nodes)
+        symbol = STATUS_SYMBOLS[style][st] if same else STATUS_SYMBOLS[style][INVALID]
+        return (f"{'  ' * depth}{symbol} {len(nodes)} × {FOLD[style]} {self.names[nodes[0]]} … "
+                f"{self.names[nodes[-1]]}", st if same else INVALID, -1)
+
+
+#: How :meth:`TreeState.lines` folds siblings of the running branch when the tree does not fit,
+#: in order: the finished composites before it (finished waypoints), the siblings after it
+#: (waypoints to come), then every sibling before it.
+_FOLDINGS = ("done", "after", "before")
+#: A fold replaces at least this many rows (one row folded into one line gains nothing).
+_MIN_FOLD = 2
 
 
 def _preorder(root: py_trees.behaviour.Behaviour) -> list[py_trees.behaviour.Behaviour]:

@@ -51,8 +51,8 @@ def status_text(panel: dict[str, Any], style: str = "unicode") -> list[str]:
         target += (f"  range {panel['range_mm'] / 1000.0:.2f} m  bearing {abs(b):.0f}{deg} "
                    f"{side}" if abs(b) >= 0.5 else
                    f"  range {panel['range_mm'] / 1000.0:.2f} m  bearing 0{deg}")
-        if panel.get("seen_s_ago", 0.0) > 0.5:
-            target += f" (seen {panel['seen_s_ago']:.1f} s ago)"
+        if panel.get("seen_s_ago", 0.0) > 0.0:  # not in the newest frame
+            target += f" (out of view, seen {panel['seen_s_ago']:.2f} s ago)"
     wheels = panel.get("wheels_mm_s")
     robot = (f"wheels L {wheels[0]:+d} R {wheels[1]:+d} mm/s  " if wheels else "") + \
         f"safety {panel.get('safety', '?')}"
@@ -98,14 +98,32 @@ class PlainView:
         self.out.flush()
 
 
+#: The status panel's height on screen: its four lines and the two of its box.
+PANEL_ROWS = 6
+#: Rows the live view leaves free below it (the cursor's line: a screen one row too tall
+#: scrolls, and rich then redraws its top twice).
+SPARE_ROWS = 1
+#: The fewest tree rows the live view draws, however small the terminal.
+MIN_TREE_ROWS = 8
+
+
+def tree_rows(height: int, width: int, style: str) -> int:
+    """How many tree rows fit a ``height`` × ``width`` terminal under the legend (wrapped to
+    ``width``) and above the status panel, at most :data:`MAX_TREE_ROWS`."""
+    legend_rows = legend(style, width).count("\n") + 1
+    return max(MIN_TREE_ROWS, min(MAX_TREE_ROWS,
+                                  height - legend_rows - PANEL_ROWS - SPARE_ROWS))
+
+
 def render(state: TreeState, panel: dict[str, Any], *, style: str, max_rows: int,
-           title: str = "") -> Any:
-    """The screen as a rich renderable: legend, tree, status panel."""
+           title: str = "", width: int | None = None) -> Any:
+    """The screen as a rich renderable: legend (wrapped to ``width``), tree, status panel."""
     from rich.console import Group
     from rich.panel import Panel
     from rich.text import Text
 
-    rows: list[Any] = [Text(legend(style), style="dim", no_wrap=True, overflow="ellipsis")]
+    rows: list[Any] = [Text(line, style="dim", no_wrap=True, overflow="ellipsis")
+                       for line in legend(style, width).split("\n")]
     for text, status in state.lines(style=style, max_rows=max_rows):
         rows.append(Text(text, style=STATUS_STYLE.get(status, ""), no_wrap=True,
                          overflow="ellipsis"))
@@ -134,7 +152,6 @@ class LiveView:
         self.style = resolve_style(style, out)
         self.console = Console(file=out)
         self.title = title
-        self.max_rows = max(8, min(MAX_TREE_ROWS, self.console.size.height - 8))
         self._live = Live(console=self.console, auto_refresh=False, transient=False,
                           redirect_stdout=False, redirect_stderr=True,
                           vertical_overflow="crop")
@@ -168,8 +185,10 @@ class LiveView:
         if self._pending is None:
             return
         state, panel = self._pending
-        self._live.update(render(state, panel, style=self.style, max_rows=self.max_rows,
-                                 title=self.title), refresh=True)
+        size = self.console.size  # read every time: the terminal may be resized
+        self._live.update(render(state, panel, style=self.style,
+                                 max_rows=tree_rows(size.height, size.width, self.style),
+                                 title=self.title, width=size.width), refresh=True)
         self.draws += 1
 
     def close(self) -> None:

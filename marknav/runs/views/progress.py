@@ -212,9 +212,12 @@ class Progress:
 
 @contextmanager
 def slow_status(text: str, out: TextIO, *, after_s: float = STATUS_AFTER_S,
-                terminal: bool | None = None) -> Iterator[None]:
+                terminal: bool | None = None,
+                make_timer: Callable[[float, Callable[[], None]], Any] = threading.Timer
+                ) -> Iterator[None]:
     """Show ``text`` while the block runs, if it runs longer than ``after_s``: a rich spinner
-    on a terminal (cleared at the end), one line elsewhere."""
+    on a terminal (cleared at the end), one line elsewhere. ``make_timer`` makes the timer
+    that shows it after ``after_s`` (:class:`threading.Timer`; tests: one they fire)."""
     term = is_terminal(out) if terminal is None else terminal
     shown: dict[str, Any] = {}  # the rich status, once shown on a terminal
     lock = threading.Lock()
@@ -244,7 +247,7 @@ def slow_status(text: str, out: TextIO, *, after_s: float = STATUS_AFTER_S,
         while not done.wait(1.0):
             status.update(f"{text} {time.monotonic() - t0:.0f} s")
 
-    timer = threading.Timer(after_s, show)
+    timer = make_timer(after_s, show)
     timer.daemon = True
     timer.start()
     try:

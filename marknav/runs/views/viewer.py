@@ -1,4 +1,8 @@
-"""A run in the Rerun viewer (``rerun-sdk``, the ``viewer`` extra): live, saved, or from a log.
+"""A run in the Rerun viewer (``rerun-sdk``, the ``viewer`` extra): live, or from a run log.
+
+The run's one recording is the MCAP file of ``marknav run --record``
+(:mod:`marknav.runs.records.mcap_recording`), which Rerun opens itself (``marknav view``);
+this module streams a run to a spawned viewer (``--viewer``), or a run log that has no recording.
 
 Entities (timeline ``run``: seconds since the run started; ``tick``: the tick number):
 
@@ -64,9 +68,12 @@ def require_display(option: str) -> None:
     """The viewer is a desktop window: InputError (exit 2) on a Linux machine without one."""
     if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY")
                                                  or os.environ.get("WAYLAND_DISPLAY")):
+        then = ("open the recording where there is one, or in Foxglove or Lichtblick"
+                if option == "view" else
+                "save a recording with --record FILE.mcap and open it with "
+                "'marknav view FILE.mcap' where there is one")
         raise InputError("the Rerun viewer needs a display (neither DISPLAY nor WAYLAND_DISPLAY "
-                         "is set); save a recording with --record FILE.rrd and open it with "
-                         "'marknav view FILE.rrd' where there is one", field=option)
+                         f"is set); {then}", field=option)
 
 
 def _up(xy: Any) -> list[float]:
@@ -91,10 +98,11 @@ def _rgb(bgr: Any) -> list[int]:
 
 
 class RerunSink:
-    """Streams (``spawn``) or saves (``path``) a run; fed by the run recorder or a run log."""
+    """Streams a run to a spawned viewer (``spawn``; else to no sink: tests count what it
+    logs); fed by the run recorder or a run log."""
 
     def __init__(self, mission: Any, world: Any, *, spawn: bool = False,
-                 path: Path | None = None, colours: dict[str, list[int]] | None = None,
+                 colours: dict[str, list[int]] | None = None,
                  frames_hz: float | None = RECORD_FRAMES_HZ,
                  jpeg_quality: int = RECORD_JPEG_QUALITY) -> None:
         """``frames_hz``: at most this many camera images per second of run time (``None``:
@@ -103,23 +111,16 @@ class RerunSink:
             raise ValueError(f"frames_hz must be positive or None, got {frames_hz}")
         if not 0 <= jpeg_quality <= 100:
             raise ValueError(f"jpeg_quality must be in 0..100, got {jpeg_quality}")
-        rr = require_rerun("--viewer" if spawn else "--record")
+        rr = require_rerun("--viewer" if spawn else "view")
         self.rr = rr
         self.rec = rr.RecordingStream("marknav")
-        sinks: list[Any] = []
-        if path is not None:
-            Path(path).parent.mkdir(parents=True, exist_ok=True)
-            sinks.append(rr.FileSink(str(path)))
         if spawn:
             # The viewer process inherits RERUN_ANALYTICS=0 from this process.
             self.rec.spawn(connect=False)
-            sinks.append(rr.GrpcSink())
-        if sinks:
             try:
-                self.rec.set_sinks(*sinks, default_blueprint=_blueprint(rr))
+                self.rec.set_sinks(rr.GrpcSink(), default_blueprint=_blueprint(rr))
             except Exception as exc:
-                raise InputError(f"cannot start the recording: {exc}",
-                                 file=str(path) if path is not None else None) from None
+                raise InputError(f"cannot start the viewer: {exc}") from None
         self.colours = dict(colours or {})
         if mission is not None and not self.colours:
             from marknav.sim.builtin_camera import mark_bgr
@@ -263,8 +264,8 @@ def _jpeg(image: Any, quality: int) -> bytes:
     return bytes(data.tobytes())
 
 
-def log_to_recording(log_path: Path, records: list[dict[str, Any]], *, spawn: bool = False,
-                     path: Path | None = None) -> RerunSink:
+def log_to_recording(log_path: Path, records: list[dict[str, Any]], *,
+                     spawn: bool = False) -> RerunSink:
     """Feed a run log to Rerun (``marknav view RUN``): the same entities as a live run; camera
     images only where the run saved frames (``--frames``)."""
     from marknav.runs.records.runlog import Replay
@@ -272,7 +273,7 @@ def log_to_recording(log_path: Path, records: list[dict[str, Any]], *, spawn: bo
     replay = Replay(records)
     info = replay.info
     colours = {k: _rgb(v) for k, v in info.get("mission", {}).get("colours", {}).items()}
-    sink = RerunSink(None, None, spawn=spawn, path=path, colours=colours, frames_hz=None)
+    sink = RerunSink(None, None, spawn=spawn, colours=colours, frames_hz=None)
     if "world" in info:
         sink.static_world(info["world"])
     frames_by_t: dict[float, list[dict[str, Any]]] = {}

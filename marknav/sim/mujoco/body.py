@@ -23,7 +23,8 @@ from marknav.sim.builtin_camera import CameraConfig
 from marknav.sim.lens import LensWarp, lens_warp
 from marknav.sim.mujoco.gl import import_mujoco
 from marknav.sim.mujoco.model import CREATE2, DEFAULT_CAMERA, TIMESTEP_S, CreateSpec, build_model
-from marknav.sim.world import World, bumper_sides
+from marknav.sim.world.contacts import bumper_sides
+from marknav.sim.world.schema import World
 from marknav.vision.palette import ColourRange
 
 __all__ = ["BumperContact", "MujocoBody"]

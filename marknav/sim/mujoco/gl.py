@@ -25,7 +25,8 @@ from typing import Any
 
 from marknav.core.errors import InputError
 
-__all__ = ["EGL_PACKAGES", "OSMESA_PACKAGE", "backend", "import_mujoco", "make_renderer"]
+__all__ = ["EGL_PACKAGES", "OSMESA_PACKAGE", "backend", "import_mujoco", "make_renderer",
+           "missing_library"]
 
 log = logging.getLogger(__name__)
 
@@ -78,6 +79,15 @@ def _library_present(name: str) -> bool:
         except OSError:
             continue
     return ctypes.util.find_library(short) is not None
+
+
+def missing_library() -> str | None:
+    """``None`` when the OpenGL library of :func:`backend` is there, else how to install it
+    (looked up without importing ``mujoco``)."""
+    name = backend()
+    if _library_present(name):
+        return None
+    return f"its renderer (MUJOCO_GL={name}) needs a system library: {_install_hint(name)}"
 
 
 def import_mujoco(*, rendering: bool = True) -> ModuleType:

@@ -42,7 +42,7 @@ import numpy as np
 from marknav.sim.builtin_camera import CameraConfig, mark_bgr
 from marknav.sim.mujoco.scene import Light, MujocoScene, near_hue
 from marknav.sim.scenery import room_photo
-from marknav.sim.world import World
+from marknav.sim.world.schema import World
 from marknav.vision.palette import ColourRange
 
 __all__ = ["CAMERA_HEIGHT_MM", "CREATE2", "DEFAULT_CAMERA", "CreateSpec", "MjcfModel",

@@ -2,7 +2,8 @@
 
 A world's optional ``mujoco:`` section (:class:`MujocoScene`); the built-in engine ignores it.
 :func:`random_scene` draws one for the randomised worlds ``marknav evaluate --engine mujoco``
-runs. The ranges, with their physical reasons:
+runs. The ranges are entries of the one table, :mod:`marknav.sim.randomisation`; with their
+physical reasons:
 
 - **Lights** (:data:`LIGHT_COUNT` 1-3) hang at :data:`LIGHT_HEIGHT_MM` (2.2-2.8 m, a room's
   ceiling lamps) within :data:`LIGHT_SPREAD_MM` of the course, each casting shadows; their
@@ -37,6 +38,8 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from marknav.sim.randomisation import bounds, counts
+
 __all__ = [
     "AMBIENT",
     "CORRIDOR_MARGIN_MM",
@@ -57,24 +60,28 @@ __all__ = [
     "random_scene",
 ]
 
-LIGHT_COUNT = (1, 3)
-LIGHT_HEIGHT_MM = (2200.0, 2800.0)
+# The ranges are entries of the one table, marknav.sim.randomisation (``mujoco.*``, ``room.*``);
+# these names are kept for the docstring above and existing callers.
+LIGHT_COUNT = counts("mujoco.light_count")
+LIGHT_HEIGHT_MM = bounds("mujoco.light_height")
+#: Lamps hang within this of the course (a geometric margin, not a drawn range).
 LIGHT_SPREAD_MM = 2000.0
-LIGHT_DIFFUSE = (0.25, 0.6)
-TINT_MAX = 0.25
+LIGHT_DIFFUSE = bounds("mujoco.light_diffuse")
+TINT_MAX = bounds("mujoco.light_tint")[1]
 DIM_PROBABILITY = 0.25
-DIM_FACTOR = (0.3, 0.5)
-AMBIENT = (0.1, 0.35)
-CHECKER_MM = (150.0, 400.0)
-OCCLUDER_COUNT = (0, 4)
-OCCLUDER_RADIUS_MM = (10.0, 30.0)
-OCCLUDER_HEIGHT_MM = (500.0, 2000.0)
-DISTRACTOR_COUNT = (0, 5)
-DISTRACTOR_SIZE_MM = (80.0, 250.0)
-NEAR_HUE_OFFSET = (8.0, 10.0)
+DIM_FACTOR = bounds("mujoco.dim_factor")
+AMBIENT = bounds("mujoco.ambient")
+CHECKER_MM = bounds("mujoco.checker")
+OCCLUDER_COUNT = counts("room.occluders")
+OCCLUDER_RADIUS_MM = bounds("mujoco.occluder_radius")
+OCCLUDER_HEIGHT_MM = bounds("mujoco.occluder_height")
+DISTRACTOR_COUNT = counts("room.distractors")
+DISTRACTOR_SIZE_MM = bounds("mujoco.distractor_size")
+NEAR_HUE_OFFSET = bounds("room.near_hue_offset")
+#: Occluders and distractors stand at least this far beyond the lane the robot drives.
 CORRIDOR_MARGIN_MM = 300.0
-CORRIDOR_SPAN_MM = 1500.0
-MARK_YAW_MAX_DEG = 60.0
+CORRIDOR_SPAN_MM = bounds("mujoco.corridor_offset")[1]
+MARK_YAW_MAX_DEG = bounds("mujoco.mark_yaw")[1]
 
 _Finite = Annotated[float, Field(allow_inf_nan=False)]
 _Unit = Annotated[float, Field(ge=0.0, le=2.0, allow_inf_nan=False)]
@@ -142,7 +149,7 @@ def _off_course(rng: np.random.Generator, marks: Sequence[tuple[float, float]],
     xs = [x for x, _ in marks] or [0.0]
     centre = 0.5 * (min(xs) + max(xs))
     x = centre + side * (lane_half_mm + CORRIDOR_MARGIN_MM
-                         + float(rng.uniform(0.0, CORRIDOR_SPAN_MM)))
+                         + float(rng.uniform(*bounds("mujoco.corridor_offset"))))
     return x, y
 
 
@@ -157,7 +164,7 @@ def random_scene(seed: int, marks: Sequence[tuple[float, float]], colours: Seque
     dim = (float(rng.uniform(*DIM_FACTOR)) if rng.random() < DIM_PROBABILITY else 1.0)
     lights = []
     for _ in range(int(rng.integers(LIGHT_COUNT[0], LIGHT_COUNT[1] + 1))):
-        tint = 1.0 + rng.uniform(-TINT_MAX, TINT_MAX, size=3)
+        tint = 1.0 + rng.uniform(*bounds("mujoco.light_tint"), size=3)
         level = float(rng.uniform(*LIGHT_DIFFUSE)) * dim
         lights.append(Light(
             x_mm=round(float(rng.uniform(min(xs) - LIGHT_SPREAD_MM, max(xs) + LIGHT_SPREAD_MM)),
@@ -175,7 +182,7 @@ def random_scene(seed: int, marks: Sequence[tuple[float, float]], colours: Seque
             x_mm=round(x, 1), y_mm=round(y, 1),
             radius_mm=round(float(rng.uniform(*OCCLUDER_RADIUS_MM)), 1),
             height_mm=round(float(rng.uniform(*OCCLUDER_HEIGHT_MM)), 1),
-            grey=round(float(rng.uniform(0.15, 0.8)), 2)))
+            grey=round(float(rng.uniform(*bounds("mujoco.occluder_grey"))), 2)))
     distractors = []
     palette = sorted(set(colours))
     for _ in range(int(rng.integers(DISTRACTOR_COUNT[0], DISTRACTOR_COUNT[1] + 1))):

@@ -34,6 +34,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from marknav.sim.randomisation import bounds
 from marknav.sim.synthetic.scene import (
     SUPERSAMPLE,
     Image,
@@ -77,25 +78,26 @@ CONDITIONS = ("plain", "occluder", "overlap", "floor", "board")
 
 @dataclass(frozen=True)
 class CompositeSpec:
-    """What to composite. Ranges are (low, high), drawn uniformly."""
+    """What to composite. Ranges are (low, high), drawn uniformly; the defaults are the
+    ``composite.*`` entries of :mod:`marknav.sim.randomisation`."""
 
     width: int = 640
     height: int = 480
     focal_px: float = 590.0
     mark_radius_mm: float = 100.0
     n_marks: int = 2
-    radius: tuple[float, float] = (10.0, 60.0)
-    yaw_deg: tuple[float, float] = (0.0, 55.0)
+    radius: tuple[float, float] = bounds("composite.mark_radius")
+    yaw_deg: tuple[float, float] = bounds("composite.mark_yaw")
     #: Mark centres lie within this many px of the horizon row (pitch, roll, uneven floors).
     horizon_tolerance_px: float = 12.0
-    occluder_px: tuple[float, float] = (2.0, 8.0)
-    floor_saturation: tuple[float, float] = (90.0, 160.0)
+    occluder_px: tuple[float, float] = bounds("composite.occluder_width")
+    floor_saturation: tuple[float, float] = bounds("composite.floor_saturation")
     #: Share of the outline an overlapping object hides.
-    overlap: tuple[float, float] = (0.1, 0.3)
-    blur_sigma: tuple[float, float] = (0.0, 1.0)
-    noise_sigma: tuple[float, float] = (1.0, 3.0)
-    gain: tuple[float, float] = (0.75, 1.25)
-    mark_value: tuple[float, float] = (150.0, 230.0)
+    overlap: tuple[float, float] = bounds("composite.overlap")
+    blur_sigma: tuple[float, float] = bounds("composite.blur_sigma")
+    noise_sigma: tuple[float, float] = bounds("composite.noise_sigma")
+    gain: tuple[float, float] = bounds("composite.gain")
+    mark_value: tuple[float, float] = bounds("composite.mark_value")
 
 
 @dataclass(frozen=True)

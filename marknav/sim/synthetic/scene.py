@@ -23,6 +23,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from marknav.sim.randomisation import bounds
 from marknav.vision.palette import DEFAULT_PALETTE, ColourRange, Palette
 
 __all__ = [
@@ -66,19 +67,20 @@ class Scene:
 
 @dataclass(frozen=True)
 class SceneSpec:
-    """What to paint. Ranges are (low, high), drawn uniformly."""
+    """What to paint. Ranges are (low, high), drawn uniformly; the defaults' drawn ranges are the
+    ``synthetic.*`` entries of :mod:`marknav.sim.randomisation`."""
 
     width: int = 640
     height: int = 480
     n_marks: int = 3
-    radius: tuple[float, float] = (12.0, 60.0)
+    radius: tuple[float, float] = bounds("synthetic.mark_radius")
     #: Share of marks drawn as ellipses, and their minor/major ratio range.
     ellipse_share: float = 0.0
-    axis_ratio: tuple[float, float] = (0.5, 0.95)
+    axis_ratio: tuple[float, float] = bounds("synthetic.axis_ratio")
     n_clutter: int = 6
     #: Share of marks partly hidden by a grey occluder, and the hidden share of the outline.
     occluded_share: float = 0.0
-    occlusion: tuple[float, float] = (0.1, 0.3)
+    occlusion: tuple[float, float] = bounds("synthetic.occlusion")
     #: Share of marks placed across the image edge.
     cut_share: float = 0.0
     #: Pairs of touching marks of different colours (counted in ``n_marks``).
@@ -87,10 +89,10 @@ class SceneSpec:
     #: Largest per-channel cast factor deviation (warm: R up, B down; cool: the reverse).
     cast: float = 0.0
     blur_sigma: tuple[float, float] = (0.0, 0.0)
-    noise_sigma: tuple[float, float] = (2.0, 2.0)
+    noise_sigma: tuple[float, float] = bounds("synthetic.noise_sigma")
     #: Value (0..255) of the painted marks before the gain.
-    mark_value: tuple[float, float] = (130.0, 160.0)
-    background: tuple[float, float] = (90.0, 150.0)
+    mark_value: tuple[float, float] = bounds("synthetic.mark_value")
+    background: tuple[float, float] = bounds("synthetic.background")
 
 
 def _bgr_of(hue_cv: float, sat: float, val: float) -> tuple[float, float, float]:
@@ -288,8 +290,9 @@ def render_scene(rng: np.random.Generator, spec: SceneSpec = SceneSpec(),
 # ---------------------------------------------------------------------- fixed frames
 
 BENCH_SPEC = SceneSpec(
-    width=640, height=480, n_marks=3, radius=(15.0, 70.0), ellipse_share=0.25,
-    n_clutter=6, gain=(0.6, 1.4), cast=0.15, blur_sigma=(0.0, 1.2), noise_sigma=(1.0, 3.0),
+    width=640, height=480, n_marks=3, radius=bounds("bench.mark_radius"), ellipse_share=0.25,
+    n_clutter=6, gain=bounds("bench.gain"), cast=0.15, blur_sigma=bounds("bench.blur_sigma"),
+    noise_sigma=bounds("bench.noise_sigma"),
 )
 
 
