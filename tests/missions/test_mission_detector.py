@@ -71,7 +71,8 @@ def test_a_half_size_frame_gets_the_camera_scaled_to_it(tmp_path: Path) -> None:
     mission = load_mission(_mission(tmp_path, "  detect: {max_range_mm: 6000}\n"))
     det = CameraDetector.for_mission(mission, horizon_row=250.0)
     full, half = det.config_for(640, 480), det.config_for(320, 240)
-    assert half.shape.min_radius_px == pytest.approx(max(ROBOT_FLOOR_PX, full.shape.min_radius_px / 2))
+    assert half.shape.min_radius_px == pytest.approx(
+        max(ROBOT_FLOOR_PX, full.shape.min_radius_px / 2))
     assert half.suppress.horizon_row == pytest.approx((250.0 + 0.5) / 2 - 0.5)
     assert half.suppress.horizon_tolerance_px < full.suppress.horizon_tolerance_px
 

@@ -113,7 +113,8 @@ def test_a_mark_cut_in_two_by_a_thin_pole_is_one_mark(bar_px: int) -> None:
     assert [m.colour for m in found] == ["green"]
     assert math.hypot(found[0].x - 300.5, found[0].y - 240.5) < 1.5
     assert found[0].radius == pytest.approx(40.0, rel=0.05)
-    off = Detector(COMPOSITE_PALETTE, DetectorConfig().with_(segment={"bridge_px": 0})).detect(image)
+    no_joining = DetectorConfig().with_(segment={"bridge_px": 0})
+    off = Detector(COMPOSITE_PALETTE, no_joining).detect(image)
     assert not any(abs(m.radius - 40.0) < 2.0 for m in off)  # the joining is what finds it
 
 
