@@ -147,7 +147,10 @@ def screen(blob: Blob, config: ShapeConfig) -> Ellipse | None:
             SEARCH_SCALE * (a + _QUANTUM_PX) < config.min_radius_px:
         return None
     if blob.frame is None:
-        if blob.area < config.min_fill * math.pi * a * b:
+        # The contour's polygon runs through its rim pixels' centres: a small blob's corners
+        # fall short of the ellipse fitted to them by up to half a quantum all round.
+        if blob.area < config.min_fill * math.pi * max(0.0, a - 0.5 * _QUANTUM_PX) * \
+                max(0.0, b - 0.5 * _QUANTUM_PX):
             return None
         (_, _), (rw, rh), _ = cv2.minAreaRect(blob.contour)
         if blob.area > _MAX_EXTENT * (rw + 1.0) * (rh + 1.0):
