@@ -350,7 +350,6 @@ def test_sim_frame_mark_cut_by_a_pole_below_bars_of_its_colour() -> None:
     assert sim_range_mm(red.radius) == pytest.approx(1028.0, rel=0.03)
 
 
-@KNOWN_LIMIT
 def test_sim_frame_mark_cut_by_a_pole_beside_a_floor_of_another_colour() -> None:
     """Slalom seed 54, frame 890 (cropped to x 280-600, y 100-400): a blue mark 1006 mm ahead
     is cut in two by a pole; its halves touch an orange wood floor that the search mask keeps
