@@ -63,6 +63,9 @@ _MAX_EXTENT = 0.9
 #: Search-image semi-major axis (px) under which a blob's shape is checked again at full
 #: resolution (a bar of 12 × 7 search pixels has its corners rounded off there).
 _SMALL_PX = 8.0
+#: Search-image semi-major axis (px) under which a blob's polygon falls measurably short of its
+#: ellipse (half a quantum all round is a tenth of the area of a blob this small).
+_FEW_PX = 4.0
 #: Points along an ellipse sampled for the share of it inside the frame.
 _OUTLINE_SAMPLES = 64
 #: A blob's longer side spans at least this share of a smallest mark's diameter (the major
@@ -147,10 +150,11 @@ def screen(blob: Blob, config: ShapeConfig) -> Ellipse | None:
             SEARCH_SCALE * (a + _QUANTUM_PX) < config.min_radius_px:
         return None
     if blob.frame is None:
-        # The contour's polygon runs through its rim pixels' centres: a small blob's corners
-        # fall short of the ellipse fitted to them by up to half a quantum all round.
-        if blob.area < config.min_fill * math.pi * max(0.0, a - 0.5 * _QUANTUM_PX) * \
-                max(0.0, b - 0.5 * _QUANTUM_PX):
+        # The contour's polygon runs through its rim pixels' centres: a blob of a few pixels
+        # (a far mark, or a piece cut from its surroundings) falls short of the ellipse fitted
+        # to them by up to half a quantum all round; it is checked again at full resolution.
+        q = 0.5 * _QUANTUM_PX if a < _FEW_PX else 0.0
+        if blob.area < config.min_fill * math.pi * max(0.0, a - q) * max(0.0, b - q):
             return None
         (_, _), (rw, rh), _ = cv2.minAreaRect(blob.contour)
         if blob.area > _MAX_EXTENT * (rw + 1.0) * (rh + 1.0):
