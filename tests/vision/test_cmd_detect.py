@@ -113,8 +113,8 @@ def test_mission_range_law_gives_each_mark_its_distance(
             capsys.readouterr().out)
 
 
-@pytest.mark.xfail(strict=True, reason="pipeline detector: partly hidden marks are not fitted "
-                   "from their visible arc (both orange sweets lie partly under others)")
+@pytest.mark.xfail(strict=True, reason="pipeline detector: a sweet whose shading spans two "
+                   "adjacent palette hues (orange into red) is split pixel by pixel")
 def test_default_palette_tells_orange_sweets_from_red(capsys: pytest.CaptureFixture[str]) -> None:
     # smarties.png: red ×4, orange ×2, green ×3 (one cut by the edge), blue ×3.
     assert main(["detect", str(SMARTIES), "--json"]) == 0
