@@ -60,12 +60,6 @@ _PARTIAL_RADIUS = 1.6
 #: Largest share of its smallest bounding rectangle a blob may fill: an ellipse fills π/4 ≈
 #: 0.785 of it, a disc of a few pixels' radius digitised up to 0.88; a rectangle all of it.
 _MAX_EXTENT = 0.9
-#: Search-image semi-major axis (px) under which a blob's shape is checked again at full
-#: resolution (a bar of 12 × 7 search pixels has its corners rounded off there).
-_SMALL_PX = 8.0
-#: Search-image semi-major axis (px) under which a blob's polygon falls measurably short of its
-#: ellipse (half a quantum all round is a tenth of the area of a blob this small).
-_FEW_PX = 4.0
 #: Points along an ellipse sampled for the share of it inside the frame.
 _OUTLINE_SAMPLES = 64
 #: A blob's longer side spans at least this share of a smallest mark's diameter (the major
@@ -150,11 +144,7 @@ def screen(blob: Blob, config: ShapeConfig) -> Ellipse | None:
             SEARCH_SCALE * (a + _QUANTUM_PX) < config.min_radius_px:
         return None
     if blob.frame is None:
-        # The contour's polygon runs through its rim pixels' centres: a blob of a few pixels
-        # (a far mark, or a piece cut from its surroundings) falls short of the ellipse fitted
-        # to them by up to half a quantum all round; it is checked again at full resolution.
-        q = 0.5 * _QUANTUM_PX if a < _FEW_PX else 0.0
-        if blob.area < config.min_fill * math.pi * max(0.0, a - q) * max(0.0, b - q):
+        if blob.area < config.min_fill * math.pi * a * b:
             return None
         (_, _), (rw, rh), _ = cv2.minAreaRect(blob.contour)
         if blob.area > _MAX_EXTENT * (rw + 1.0) * (rh + 1.0):
@@ -342,7 +332,7 @@ def _measure_blob(scene: Scene, blob: Blob, config: ShapeConfig) -> Mark | None:
             return None
         alpha = np.zeros_like(alpha)
         cv2.fillConvexPoly(alpha, cv2.convexHull(paint), 1.0)
-    elif fit[1][0] < _SMALL_PX and _boxy(alpha):
+    elif _boxy(alpha):  # a bar's corners are square in the frame's own pixels at any size
         return None
     ellipse = coverage_ellipse(alpha)
     if ellipse is None:
