@@ -12,7 +12,7 @@ from marknav.core.errors import EXIT_INTERRUPTED, InputError, MissionFailed
 
 #: Shown when preparing takes over a second: building the compiled loops on a cold cache (the
 #: first run after installing: 10–40 s), or loading them on a very busy machine.
-PREPARING = "preparing the detector (the first run compiles it: up to a minute)…"
+PREPARING = "preparing the simulator (the first run compiles its renderer: up to a minute)…"
 
 if TYPE_CHECKING:
     from marknav.missions.schema import Mission
@@ -229,7 +229,7 @@ def run(args: argparse.Namespace) -> int:
         if args.engine is None and mission.sim is not None and mission.sim.engine == "mujoco":
             require(MUJOCO, "sim.engine")  # --engine was checked with the other options
         req = request()
-        stage = "while preparing the detector"
+        stage = "while preparing the simulator"
         with slow_status(PREPARING, sys.stderr):
             prepare(simulator=args.robot == "sim")
         stage, started = "while starting", True

@@ -1,8 +1,8 @@
 """Compiling a loop with numba, its machine code cached where numba can write.
 
-Used by the detector's loops (:mod:`marknav.vision.detect.kernels`) and the simulator's
-projection (:mod:`marknav.sim.projection`): loops whose cost as NumPy or OpenCV calls was the
-calls, not the arithmetic.
+Used by the simulator's projection (:mod:`marknav.sim.projection`): loops whose cost as NumPy
+or OpenCV calls was the calls, not the arithmetic. (The detector has none since it became a
+pipeline of whole-image OpenCV stages, decision 0031.)
 """
 
 from __future__ import annotations

@@ -1,9 +1,9 @@
 """The detector a mission's camera calls for: minimum mark size and horizon prior from the
 camera model (``camera.detect`` in the mission file).
 
-- **Minimum radius** (:meth:`DetectorConfig.for_camera`): a mark at ``max_range_mm`` is
-  0.9·f·R/d px across its semi-major axis, not below ``ROBOT_FLOOR_PX``; smaller blobs are not
-  marks that matter (they are clutter or marks too far to steer by).
+- **Minimum radius** (:meth:`~marknav.vision.detect.DetectorConfig.for_camera`): a mark at
+  ``max_range_mm`` is 0.9·f·R/d px across its semi-major axis, not below ``ROBOT_FLOOR_PX``; smaller
+  blobs are not marks that matter (they are clutter or marks too far to steer by).
 - **Horizon prior** (paper §3.1: marks stand at camera height): mark centres lie on the
   principal point's row (the image centre's without intrinsics). With the camera's pose
   (``camera.pitch_deg``, ``roll_deg``, ``height_mm`` and ``marks.height_mm``) the band is placed
@@ -19,9 +19,11 @@ camera model (``camera.detect`` in the mission file).
   band are used; then the band is the fitted pose's (never narrower than the level one's).
 - **White balance held to the room's light** (``tint_limit``): the grey-world correction's
   green–magenta part is limited; a room's lights differ along blue–amber, and a strong green or
-  magenta cast in its greys is a painted wall or carpet (:attr:`DetectorConfig.tint_limit`).
-- **Faint blobs are not marks** (``min_chroma_contrast``, :mod:`.detect.faint`): a mark's
-  colour must stand out from a ring just outside it.
+  magenta cast in its greys is a painted wall or carpet
+  (:attr:`~marknav.vision.detect.photometry.PhotometryConfig.tint_limit`).
+- **Faint blobs are not marks** (``min_chroma_contrast``,
+  :attr:`~marknav.vision.detect.shape.ShapeConfig.min_contrast`): a mark's colour must stand
+  out from its surroundings'.
 
 Frames of another size than the mission's camera (a camera that delivers another mode) get
 their own detector, the focal length and principal point scaled to them.
@@ -35,13 +37,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 from marknav.core.wording import count, signed
 from marknav.missions.schema_camera import ROBOT_TINT_LIMIT
 from marknav.missions.schema_mission import Mission
-from marknav.vision.detect import Detector, DetectorConfig, Mark
-from marknav.vision.detect.geometry import U8Array
+from marknav.vision.detect.model import Mark
+from marknav.vision.detect.pipeline import Detector, DetectorConfig
+from marknav.vision.detect.scene import U8Array
+from marknav.vision.detect.shape import ShapeConfig
 from marknav.vision.horizon_learning import HorizonFit, HorizonLearner
 from marknav.vision.palette import Palette
 
@@ -109,29 +113,31 @@ def camera_detector_config(*, width: int, height: int, focal_px: float, mark_rad
                            max_range_mm: float | None, horizon_tolerance_deg: float | None,
                            horizon_row: float | None = None,
                            tint_limit: float | None = None,
-                           min_chroma_contrast: float = DetectorConfig.min_chroma_contrast,
-                           max_readings: int = DetectorConfig.max_readings,
+                           min_chroma_contrast: float = ShapeConfig.min_contrast,
+                           max_readings: int = ShapeConfig.max_blobs,
                            pose: CameraPose | None = None,
                            ) -> DetectorConfig:
     """The detector config for a ``width`` × ``height`` camera of focal length ``focal_px``
     (``horizon_row``: the principal point's row; default the image centre's; ``pose``: the
     camera's, default level at the marks' height; ``tint_limit``, ``min_chroma_contrast``,
-    ``max_readings``: :class:`DetectorConfig`'s)."""
-    row, tolerance = None, DetectorConfig.horizon_tolerance_px
+    ``max_readings``: the photometry's ``tint_limit``, the shape's ``min_contrast`` and
+    ``max_blobs``)."""
+    row: float | None = None
+    tolerance = 0.0
     if horizon_tolerance_deg is not None:
         centre = (height - 1) / 2.0 if horizon_row is None else horizon_row
         lo, hi = horizon_band(pose or CameraPose(), width=width, focal_px=focal_px,
                               centre_row=centre, tolerance_deg=horizon_tolerance_deg)
         row, tolerance = 0.5 * (lo + hi), 0.5 * (hi - lo)
-    if max_range_mm is None:
-        return DetectorConfig(horizon_row=row, horizon_tolerance_px=tolerance,
-                              tint_limit=tint_limit, min_chroma_contrast=min_chroma_contrast,
-                              max_readings=max_readings)
-    return replace(DetectorConfig.for_camera(
+    base = DetectorConfig() if max_range_mm is None else DetectorConfig.for_camera(
         focal_px=focal_px, mark_radius_mm=mark_radius_mm, max_range_mm=max_range_mm,
-        floor_px=ROBOT_FLOOR_PX, horizon_row=row, horizon_tolerance_px=tolerance),
-        tint_limit=tint_limit, min_chroma_contrast=min_chroma_contrast,
-        max_readings=max_readings)
+        floor_px=ROBOT_FLOOR_PX)
+    suppress = {"horizon_row": row}
+    if row is not None:
+        suppress["horizon_tolerance_px"] = tolerance
+    return base.with_(photometry={"tint_limit": tint_limit},
+                      shape={"min_contrast": min_chroma_contrast, "max_blobs": max_readings},
+                      suppress=suppress)
 
 
 class CameraDetector:
@@ -148,8 +154,8 @@ class CameraDetector:
                  mark_radius_mm: float, max_range_mm: float | None,
                  horizon_tolerance_deg: float | None, horizon_row: float | None = None,
                  tint_limit: float | None = None,
-                 min_chroma_contrast: float = DetectorConfig.min_chroma_contrast,
-                 max_readings: int = DetectorConfig.max_readings,
+                 min_chroma_contrast: float = ShapeConfig.min_contrast,
+                 max_readings: int = ShapeConfig.max_blobs,
                  pose: CameraPose | None = None, learn: bool = False) -> None:
         self.palette = palette
         self.pose = pose

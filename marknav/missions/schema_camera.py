@@ -25,7 +25,7 @@ from marknav.core.yamlio import Integer, Number
 from marknav.missions.registry import model_problems
 from marknav.missions.schema_problems import known_key, problem_detail, raise_problems
 from marknav.sim.camera_model import SIM_FOCAL_PX, SIM_HEIGHT, SIM_WIDTH
-from marknav.vision.detect import DetectorConfig
+from marknav.vision.detect.shape import ShapeConfig
 
 __all__ = [
     "MAX_CAMERA_PIXELS",
@@ -55,7 +55,7 @@ MAX_CAMERA_PIXELS = 1920 * 1080
 SIM_BYTES_PER_PIXEL = 340
 
 #: The robot's white-balance tint limit (``camera.detect.tint_limit``'s default): see
-#: :attr:`DetectorConfig.tint_limit`.
+#: :attr:`~marknav.vision.detect.photometry.PhotometryConfig.tint_limit`.
 ROBOT_TINT_LIMIT = 0.05
 
 
@@ -138,19 +138,19 @@ class DetectSettings(BaseModel):
         "it in the camera).",
     )
     min_chroma_contrast: Number = Field(
-        default=DetectorConfig.min_chroma_contrast, ge=0, le=255, allow_inf_nan=False,
-        description="Least colour difference (white-balanced BGR units, grey removed) between a "
-        "mark and a ring just outside it, scaled down in scenes darker than a grey level of "
-        "100: fainter round blobs of a palette hue (out-of-focus clutter) are not marks. "
-        "Painted marks measure 108 and more in the simulator, 49 and more composited into "
-        "photographs. 0: off (pale or washed-out marks).",
+        default=ShapeConfig.min_contrast, ge=0, le=255, allow_inf_nan=False,
+        description="Least colour difference (BGR levels after the detector's exposure and "
+        "light-colour correction, grey removed) between a mark's paint and its surroundings: "
+        "fainter round blobs of a palette hue (out-of-focus clutter) are not marks. Painted "
+        "marks measure 88 and more on the project's rendered and photographed corpora. "
+        "0: off.",
     )
     max_readings: Integer = Field(
-        default=DetectorConfig.max_readings, ge=1, le=100_000,
-        description="Most blobs one frame is searched for marks in, the largest first: a "
-        "crowded view (a poster of coloured squares, a rug) gives hundreds, each costing "
-        "0.05–1 ms; the rest of that frame is left unread and a warning logged. The project's "
-        "scenes and photographs need at most 258. Lower it on a slow computer.",
+        default=ShapeConfig.max_blobs, ge=1, le=100_000,
+        description="Most mark-shaped blobs one frame's marks are measured from, the largest "
+        "first: a crowded view (a poster of coloured squares, a rug) gives hundreds, each "
+        "costing about 0.1 ms; the rest of that frame is left unmeasured and a warning logged. "
+        "The project's scenes and photographs need at most 120. Lower it on a slow computer.",
     )
 
 

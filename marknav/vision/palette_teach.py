@@ -5,7 +5,7 @@ room's light move them further. This module measures them instead, in four pure 
 
 1. :func:`find_round_marks` — the saturated round objects of one frame, without a palette. The
    frame is white-balanced as the detector balances it (grey world,
-   :meth:`~marknav.vision.detect.Detector.white_balance`), so the hues measured here are the hues
+   :mod:`~marknav.vision.detect.photometry`), so the hues measured here are the hues
    the detector will compare with the palette. Saturation is judged relative to the frame: the
    search starts just above the saturation of the frame's own grey part (its 40th percentile
    plus 25, within 60..160, the detector's grey criterion) and climbs a ladder of thresholds, so
@@ -241,14 +241,17 @@ def circular_mean(hues: FloatArray, weights: FloatArray | None = None) -> tuple[
 
 
 def _balanced_hsv(image: U8Array) -> tuple[U8Array, float]:
-    """The frame in HSV after the detector's grey-world white balance, and its grey level."""
-    from marknav.vision.detect import Detector
-    from marknav.vision.palette import DEFAULT_PALETTE
+    """The frame in HSV through the detector's light-colour correction (grey world within
+    bounds, :mod:`marknav.vision.detect.photometry`; no exposure gain: the floors here are
+    relative to the frame already), and its grey level."""
+    from marknav.vision.detect.photometry import PhotometryConfig, correction_gains, table_of
 
-    gains, grey = Detector(DEFAULT_PALETTE).white_balance(image)
-    if max(abs(g - 1.0) for g in gains) > 0.02:
-        image = np.asarray(cv2.transform(image, np.diag(gains).astype(np.float32)), np.uint8)
-    return np.asarray(cv2.cvtColor(image, cv2.COLOR_BGR2HSV), np.uint8), grey
+    h, w = image.shape[:2]
+    small = cv2.resize(image, (max(1, w // 2), max(1, h // 2)), interpolation=cv2.INTER_AREA)
+    corrected = cv2.LUT(np.ascontiguousarray(image),
+                        table_of(correction_gains(small, PhotometryConfig(max_gain=1.0))))
+    grey = float(np.mean(cv2.cvtColor(corrected, cv2.COLOR_BGR2GRAY)))
+    return np.asarray(cv2.cvtColor(corrected, cv2.COLOR_BGR2HSV), np.uint8), grey
 
 
 def _roundness(shape: tuple[int, int], contour: Mat) -> tuple[float, tuple[

@@ -149,7 +149,7 @@ def test_signal_sweep_over_the_whole_life_of_a_run(tmp_path: Path) -> None:
         if data.get("sim_final") is not None:
             assert data["sim_final"]["wheels_mm_s"] == [0, 0], where
         if data["reason"].startswith("interrupted") and data["reason"].endswith(
-                ("while checking the mission", "while preparing the detector",
+                ("while checking the mission", "while preparing the simulator",
                  "while starting")):
             phases["checks and start"] += 1
         elif data["reason"].startswith("interrupted"):

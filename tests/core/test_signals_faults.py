@@ -291,7 +291,7 @@ def test_a_signal_in_the_first_tenth_of_a_second_exits_130(tmp_path: Path, sig: 
     ("check_build", "while checking the mission"),  # building the tree
     ("check_world", "while checking the mission"),  # loading the world
     ("_request", "while checking the mission"),  # choosing the run folder
-    ("prepare", "while preparing the detector"),  # loading the compiled loops
+    ("prepare", "while preparing the simulator"),  # loading the compiled loops
     ("execute", "while starting"),  # the run's first step, before its own files
 ])
 def test_a_signal_once_the_mission_was_read_leaves_a_report_and_a_log(

@@ -44,48 +44,48 @@ def _mission(tmp_path: Path, detect: str = "") -> Path:
 
 def test_the_default_is_the_horizon_band_with_the_fixed_minimum(tmp_path: Path) -> None:
     cfg = CameraDetector.for_mission(load_mission(_mission(tmp_path))).config_for(640, 480)
-    assert cfg.min_radius == 5.0 and cfg.horizon_row == pytest.approx(239.5)
+    assert cfg.shape.min_radius_px == 5.0 and cfg.suppress.horizon_row == pytest.approx(239.5)
 
 
 def test_a_farthest_range_derives_the_minimum_radius_and_the_horizon_band(
         tmp_path: Path) -> None:
     mission = load_mission(_mission(tmp_path, "  detect: {max_range_mm: 6000}\n"))
     cfg = CameraDetector.for_mission(mission).config_for(640, 480)
-    assert cfg.min_radius == pytest.approx(0.9 * 590 * 100 / 6000)  # 8.85 px at 6 m
-    assert cfg.min_partial_radius == pytest.approx(1.6 * cfg.min_radius)
-    assert cfg.horizon_row == pytest.approx(239.5)
+    assert cfg.shape.min_radius_px == pytest.approx(0.9 * 590 * 100 / 6000)  # 8.85 px at 6 m
+    assert cfg.suppress.horizon_row == pytest.approx(239.5)
     t = math.tan(math.radians(3.0))
     band = (590 + 320) * t + HORIZON_SLACK_PX
     # No camera.pitch_deg: the pose is learnt, so the detector searches wide, and the level
     # band is the one whose marks are used until a fit moves it.
     wide = (590 + 320) * math.tan(math.radians(LEARN_SPAN_DEG)) + HORIZON_SLACK_PX
-    assert cfg.horizon_tolerance_px == pytest.approx(wide)
+    assert cfg.suppress.horizon_tolerance_px == pytest.approx(wide)
     det = CameraDetector.for_mission(mission)
     assert det.accepts(239.5 + band - 0.1, 480) and not det.accepts(239.5 + band + 0.1, 480)
     # A given pitch: its band, searched and used
     level = load_mission(_mission(tmp_path, "  detect: {max_range_mm: 6000}\n  pitch_deg: 0\n"))
     cfg = CameraDetector.for_mission(level).config_for(640, 480)
-    assert cfg.horizon_tolerance_px == pytest.approx(band)
+    assert cfg.suppress.horizon_tolerance_px == pytest.approx(band)
 
 
 def test_a_half_size_frame_gets_the_camera_scaled_to_it(tmp_path: Path) -> None:
     mission = load_mission(_mission(tmp_path, "  detect: {max_range_mm: 6000}\n"))
     det = CameraDetector.for_mission(mission, horizon_row=250.0)
     full, half = det.config_for(640, 480), det.config_for(320, 240)
-    assert half.min_radius == pytest.approx(max(ROBOT_FLOOR_PX, full.min_radius / 2))
-    assert half.horizon_row == pytest.approx((250.0 + 0.5) / 2 - 0.5)
-    assert half.horizon_tolerance_px < full.horizon_tolerance_px
+    assert half.shape.min_radius_px == pytest.approx(
+        max(ROBOT_FLOOR_PX, full.shape.min_radius_px / 2))
+    assert half.suppress.horizon_row == pytest.approx((250.0 + 0.5) / 2 - 0.5)
+    assert half.suppress.horizon_tolerance_px < full.suppress.horizon_tolerance_px
 
 
 def test_null_settings_give_the_plain_detector(tmp_path: Path) -> None:
     mission = load_mission(_mission(
         tmp_path, "  detect: {max_range_mm: null, horizon_tolerance_deg: null}\n"))
     cfg = CameraDetector.for_mission(mission).config_for(640, 480)
-    assert cfg.horizon_row is None and cfg.min_radius == 5.0
+    assert cfg.suppress.horizon_row is None and cfg.shape.min_radius_px == 5.0
 
 
 def test_the_faint_floor_comes_from_the_mission(tmp_path: Path) -> None:
-    """``camera.detect.min_chroma_contrast`` (default 44; 0: off): a dark, slightly blue disc
+    """``camera.detect.min_chroma_contrast`` (default 50; 0: off): a dark, slightly blue disc
     (chroma 23 against its grey wall) is dropped by default and reported with the floor off."""
     image = np.full((480, 640, 3), 120, np.uint8)
     cv2.circle(image, (200, 240), 30, (80, 50, 45), -1)
@@ -99,8 +99,8 @@ def test_the_faint_floor_comes_from_the_mission(tmp_path: Path) -> None:
         p.write_text(text.replace("DETECT", detect))
         mission = load_mission(p)
         found[detect] = sorted(m.colour for m in CameraDetector.for_mission(mission).detect(image))
-        assert CameraDetector.for_mission(mission).config_for(640, 480).min_chroma_contrast == \
-            (0.0 if detect else 44.0)
+        assert CameraDetector.for_mission(mission).config_for(640, 480).shape.min_contrast == \
+            (0.0 if detect else 50.0)
     assert found[""] == ["red"]
     assert found["  detect: {min_chroma_contrast: 0}\n"] == ["blue", "red"]
 
@@ -115,10 +115,9 @@ def test_the_reading_budget_comes_from_the_mission(tmp_path: Path) -> None:
     for budget in (None, 1):
         detect = "" if budget is None else f"  detect: {{max_readings: {budget}}}\n"
         camera = CameraDetector.for_mission(load_mission(_mission(tmp_path, detect)))
-        assert camera.config_for(640, 480).max_readings == (budget or 400)
-        assert camera.config_for(320, 240).max_readings == (budget or 400)
+        assert camera.config_for(640, 480).shape.max_blobs == (budget or 400)
+        assert camera.config_for(320, 240).shape.max_blobs == (budget or 400)
         found[budget] = [round(m.x) for m in camera.detect(image)]
-        assert camera.detector_for(640, 480).last_skipped == (2 if budget else 0)
     assert sorted(found[None]) == [120, 320, 520]
     assert found[1] == [320]
 
@@ -210,10 +209,10 @@ def test_run_and_detect_build_one_detector_from_the_mission(
     robot_cfg = perception._detector.config_for(640, 480)
     expected = mission_detector(mission).config_for(640, 480)
     assert robot_cfg == expected
-    assert expected.horizon_row == pytest.approx(300.0)
-    assert expected.min_chroma_contrast == 30.0 and expected.max_readings == 50
-    assert expected.tint_limit == 0.1
-    assert expected.min_radius == pytest.approx(0.9 * 590 * 100 / 5000)
+    assert expected.suppress.horizon_row == pytest.approx(300.0)
+    assert expected.shape.min_contrast == 30.0 and expected.shape.max_blobs == 50
+    assert expected.photometry.tint_limit == 0.1
+    assert expected.shape.min_radius_px == pytest.approx(0.9 * 590 * 100 / 5000)
     seen = perception.blackboard.get(keys.MARKS)
     assert [round(m.x_px) for m in seen] == [200]
 

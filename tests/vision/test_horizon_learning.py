@@ -67,7 +67,7 @@ def test_the_detector_moves_its_band_to_the_learnt_pose(mission_factory) -> None
     assert detector.learner is not None
     # searching wide while learning ...
     cfg = detector.config_for(W, H)
-    assert cfg.horizon_tolerance_px > (F + W / 2) * math.tan(math.radians(LEARN_SPAN_DEG))
+    assert cfg.suppress.horizon_tolerance_px > (F + W / 2) * math.tan(math.radians(LEARN_SPAN_DEG))
     pitched = CY + F * math.tan(math.radians(8.0))  # a camera looking 8° up: 83 px lower
     # ... but the level band is the one in use until a fit says otherwise
     assert detector.accepts(CY, H) and not detector.accepts(pitched, H)
@@ -79,7 +79,7 @@ def test_the_detector_moves_its_band_to_the_learnt_pose(mission_factory) -> None
     assert detector.accepts(pitched, H) and not detector.accepts(CY - 40.0, H)
     # the detector now searches the learnt band, not the wide one
     cfg = detector.config_for(W, H)
-    assert cfg.horizon_row == pytest.approx(pitched, abs=3.0)
+    assert cfg.suppress.horizon_row == pytest.approx(pitched, abs=3.0)
 
 
 def test_a_camera_too_far_off_level_is_said_so(mission_factory) -> None:

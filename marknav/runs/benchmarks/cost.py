@@ -4,7 +4,6 @@
 
 - ``detector``: marknav's detector (:class:`marknav.vision.detect.Detector`, the palette's
   colours);
-- ``pipeline``: the pipeline detector beside it (:mod:`marknav.vision.detect.pipeline`);
 - ``least``: the least OpenCV detector of the same palette (:func:`least_opencv_detector`):
   box-reduce to half size, BGR→HSV, one ``inRange`` per colour (two for a colour whose hue range
   wraps), a 3×3 opening, external contours, ``fitEllipse`` of each blob as large as the
@@ -35,7 +34,6 @@ from marknav.runs.benchmarks.vision import plain_hough, to_hsv
 from marknav.sim.synthetic.scene import Image, bench_frames
 from marknav.vision.detect import Detector
 from marknav.vision.detect.least import least_opencv_detector
-from marknav.vision.detect.pipeline import Detector as PipelineDetector
 from marknav.vision.palette import DEFAULT_PALETTE, Palette
 
 __all__ = ["least_opencv_detector", "photo_frames", "run_cost_bench", "sim_frames",
@@ -106,14 +104,11 @@ def _summary(times: dict[str, list[float]]) -> dict[str, Any]:
     for name, values in times.items():
         out[f"{name}_ms"] = {"p50": round(float(np.percentile(values, 50)), 3),
                              "p95": round(float(np.percentile(values, 95)), 3)}
-    for subject in ("detector", "pipeline"):
-        if subject not in times:
-            continue
-        det = np.asarray(times[subject])
-        for base in ("least", "hough", "hsv"):
-            ratio = det / np.maximum(np.asarray(times[base]), 1e-6)
-            out[f"{subject}_over_{base}"] = {"p50": round(float(np.percentile(ratio, 50)), 2),
-                                             "p95": round(float(np.percentile(ratio, 95)), 2)}
+    det = np.asarray(times["detector"])
+    for base in ("least", "hough", "hsv"):
+        ratio = det / np.maximum(np.asarray(times[base]), 1e-6)
+        out[f"detector_over_{base}"] = {"p50": round(float(np.percentile(ratio, 50)), 2),
+                                        "p95": round(float(np.percentile(ratio, 95)), 2)}
     return out
 
 
@@ -135,7 +130,6 @@ def run_cost_bench(*, synthetic: int = 40, sim: int = 24, photos: str | Path | N
     try:
         functions: dict[str, Callable[[Image], object]] = {
             "detector": Detector(palette).detect,
-            "pipeline": PipelineDetector(palette).detect,
             "least": least_opencv_detector(palette),
             "hough": plain_hough,
             "hsv": to_hsv,

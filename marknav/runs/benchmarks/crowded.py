@@ -2,13 +2,13 @@
 
 A room can hold a poster of coloured squares, a rug, a shelf of coloured boxes: hundreds of
 saturated blobs of palette hues in one frame. Every blob is looked at as a possible mark, so
-such a frame costs what no corpus photograph does (a mosaic of 8-px squares: 5,096 readings,
-1.2–1.9 s at 640 × 480 before :attr:`DetectorConfig.max_readings` bounded them per frame).
+such a frame costs what no corpus photograph does: every mark-shaped blob is measured, up to
+:attr:`~marknav.vision.detect.shape.ShapeConfig.max_blobs` a frame.
 
 :func:`crowded_frames` draws such frames (fixed seeds): mosaics of random colours and
 "confetti" (random anti-aliased discs, many of them true marks of palette colours) at 640 and
 1280 px. :func:`crowded_figures` times the bare detector and the robot's camera detector on each,
-with the readings each frame got and the ones it did not.
+with the blobs each frame had measured and the ones it left unmeasured.
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ from marknav.runs.benchmarks.photos import CAMERA, CAMERA_HEIGHT, CAMERA_WIDTH
 from marknav.runs.benchmarks.vision import to_hsv
 from marknav.sim.synthetic.scene import Image
 from marknav.vision.detect import Detector
+from marknav.vision.detect.pipeline import run_stages
 from marknav.vision.palette import DEFAULT_PALETTE
 
 __all__ = ["crowded_figures", "crowded_frames", "run_crowded_bench"]
@@ -62,7 +63,7 @@ def crowded_figures(detectors: dict[str, Callable[[int, int], Detector]],
                     repeats: int = 3) -> dict[str, dict[str, object]]:
     """Per crowded frame and detector (``detectors``: name → the detector for a frame's width
     and height): the least of ``repeats`` times (ms), the BGR→HSV conversion's, the marks
-    found, the readings made and left unread. Call with one OpenCV thread."""
+    found, the mark-shaped blobs measured and left unmeasured. Call with one OpenCV thread."""
     out: dict[str, dict[str, object]] = {}
     for name, image in crowded_frames().items():
         h, w = image.shape[:2]
@@ -72,9 +73,14 @@ def crowded_figures(detectors: dict[str, Callable[[int, int], Detector]],
         for label, make in detectors.items():
             detector = make(w, h)
             best = min(_ms(detector.detect, image) for _ in range(repeats))
+            screened = sum(1 for b in run_stages(image, detector.palette, detector.config,
+                                                 until="segment").blobs
+                           if b.ellipse is not None)
+            limit = detector.config.shape.max_blobs
             row[label] = {"ms": round(best, 1), "over_hsv": round(best / max(hsv, 1e-6), 1),
                           "marks": len(detector.detect(image)),
-                          "readings": detector.last_readings, "unread": detector.last_skipped}
+                          "measured": min(screened, limit),
+                          "unmeasured": max(0, screened - limit)}
         out[name] = row
     return out
 
@@ -95,7 +101,7 @@ def run_crowded_bench(repeats: int = 3) -> dict[str, dict[str, object]]:
                            tint_limit=ROBOT_TINT_LIMIT)
     previous = cv2.getNumThreads()
     cv2.setNumThreads(1)
-    # The frames are crowded on purpose: their unread blobs are figures here, not warnings.
+    # The frames are crowded on purpose: their unmeasured blobs are figures here, not warnings.
     detect_log = logging.getLogger("marknav.vision.detect")
     level = detect_log.level
     detect_log.setLevel(logging.ERROR)

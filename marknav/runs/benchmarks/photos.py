@@ -18,7 +18,6 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -80,7 +79,8 @@ def camera_config(width: int, horizon_row: float | None = None,
         focal_px=CAMERA["focal_px"] * width / CAMERA_WIDTH,
         mark_radius_mm=CAMERA["mark_radius_mm"], max_range_mm=CAMERA["max_range_mm"],
         horizon_tolerance_deg=None, tint_limit=ROBOT_TINT_LIMIT)
-    return replace(cfg, horizon_row=horizon_row, horizon_tolerance_px=horizon_tolerance_px)
+    return cfg.with_(suppress={"horizon_row": horizon_row,
+                               "horizon_tolerance_px": horizon_tolerance_px})
 
 
 def real_false_marks(photos: Sequence[LabelledPhoto], palette: Palette, long_side: int, *,
@@ -99,8 +99,8 @@ def real_false_marks(photos: Sequence[LabelledPhoto], palette: Palette, long_sid
         h, w = image.shape[:2]
         if (h, w) not in detectors:
             row, tol = ((h - 1) / 2.0, 0.05 * h) if horizon else (None, 24.0)
-            config = camera_config(w, row, tol) if camera else \
-                DetectorConfig(horizon_row=row, horizon_tolerance_px=tol)
+            config = camera_config(w, row, tol) if camera else DetectorConfig().with_(
+                suppress={"horizon_row": row, "horizon_tolerance_px": tol})
             detectors[(h, w)] = Detector(palette, config)
         known = [Label(lab.colour, lab.x * s, lab.y * s, lab.radius * s)
                  for lab in photo.marks + photo.ignore]

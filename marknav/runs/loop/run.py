@@ -249,13 +249,10 @@ def recorded_plans() -> list[Any]:
 
 
 def prepare(*, simulator: bool) -> None:
-    """Load the compiled loops a run needs: the detector's and, for the simulator, the
-    renderer's (≈ 0.1–0.3 s once per process from the cache; building them on a cold cache
-    takes 10–40 s on a busy 2-core machine). Cheap after the first call in a process. The
-    command line calls it under a status line before :func:`execute`, which calls it too."""
-    from marknav.vision.detect.kernels import warm_up
-
-    warm_up()
+    """Load the compiled loops a run needs: for the simulator, the renderer's (≈ 0.1–0.3 s once
+    per process from the cache; building them on a cold cache takes 10–40 s on a busy 2-core
+    machine); the detector has none. Cheap after the first call in a process. The command line
+    calls it under a status line before :func:`execute`, which calls it too."""
     if simulator:
         from marknav.sim.projection import warm_up as warm_projection
 

@@ -31,12 +31,10 @@ colour has its centre within 0.2 r and its radius within 15 %; false marks are d
 match no mark (nor an ignored object); the range error is |h_true / h_found − 1|, h the vertical
 semi-axis (range ∝ 1/h, :func:`marknav.vision.estimate.estimate_disc`).
 
-**Ablation**: the detector with one stage switched off at a time (its config flag), and the
-least OpenCV detector (:func:`marknav.vision.detect.least.least_opencv_detector`) as the floor; per
-variant recall, false marks per frame, range error p95 and cost (ms, p50) on the held-out half.
-The pipeline detector (:mod:`marknav.vision.detect.pipeline`) is scored beside it, with its own
-ablation (:data:`PIPELINE_ABLATIONS`: a stage replaced by a plain one, or the config that
-switches a part off).
+**Ablation**: the detector with one stage or veto switched off at a time (:data:`ABLATIONS`:
+a stage replaced by a plain one, or the config that switches a part off), and the least OpenCV
+detector (:func:`marknav.vision.detect.least.least_opencv_detector`) as the floor; per variant
+recall, false marks per frame, range error p95 and cost (ms, p50) on the held-out half.
 """
 
 from __future__ import annotations
@@ -45,7 +43,7 @@ import hashlib
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
@@ -53,32 +51,18 @@ import cv2
 import numpy as np
 
 from marknav.sim.synthetic.scene import Image, SceneSpec, render_scene
-from marknav.vision.detect import Detector, DetectorConfig, Mark
-from marknav.vision.detect import pipeline as pipe
+from marknav.vision.detect import DetectorConfig, Mark
+from marknav.vision.detect.pipeline import STAGES, Stage, run_stages
 from marknav.vision.detect.scene import SEARCH_SCALE, Scene
 from marknav.vision.estimate import upright_extents
 from marknav.vision.palette import DEFAULT_PALETTE, Palette
 
-__all__ = ["ABLATIONS", "PIPELINE_ABLATIONS", "Frame", "Truth", "half", "holdout_report",
-           "load_corpora", "pipeline_detector", "score"]
+__all__ = ["ABLATIONS", "Frame", "Truth", "ablated", "half", "holdout_report", "load_corpora",
+           "score"]
 
 Half = Literal["tuning", "held_out"]
 
-#: The stages that can be switched off, and the config that switches each off.
-ABLATIONS: dict[str, dict[str, Any]] = {
-    "white balance (grey world)": {"white_balance": False},
-    "chroma-contrast filter": {"min_chroma_contrast": 0.0},
-    "glow rejection": {"reject_glows": False},
-    "coarse gate": {"coarse_gate": False},
-    "hue gate": {"hue_gate": False},
-    "per-colour re-reading": {"split_colours": False},
-    "saturation split": {"split_saturation_gap": 0.0},
-    "bridging thin occluders": {"bridge_px": 0.0},
-    "opening": {"open_size": 1},
-}
-
-
-def _plain_photometry(scene: Scene, config: pipe.DetectorConfig) -> Scene:
+def _plain_photometry(scene: Scene, config: DetectorConfig) -> Scene:
     """Photometry switched off: the search image at half size, no gain, no light correction."""
     from dataclasses import replace as replaced
 
@@ -92,16 +76,15 @@ def _plain_photometry(scene: Scene, config: pipe.DetectorConfig) -> Scene:
                     hsv=cv2.cvtColor(small, cv2.COLOR_BGR2HSV))
 
 
-def _no_suppression(scene: Scene, config: pipe.DetectorConfig) -> Scene:
+def _no_suppression(scene: Scene, config: DetectorConfig) -> Scene:
     """Suppression switched off: every measured mark, largest first."""
     from dataclasses import replace as replaced
 
     return replaced(scene, marks=tuple(sorted(scene.marks, key=lambda m: -m.radius)))
 
 
-#: The pipeline detector's parts that can be switched off: a stage replaced (name, plain
-#: stage) or config changes per stage.
-PIPELINE_ABLATIONS: dict[str, tuple[str, pipe.Stage] | dict[str, dict[str, Any]]] = {
+#: What can be switched off: a stage replaced (name, plain stage) or config changes per stage.
+ABLATIONS: dict[str, tuple[str, Stage] | dict[str, dict[str, Any]]] = {
     "photometry (gain and light colour)": ("photometry", _plain_photometry),
     "exposure gain": {"photometry": {"max_gain": 1.0}},
     "pale-paint floors (sat_share 1)": {"classify": {"sat_share": 1.0}},
@@ -114,23 +97,16 @@ PIPELINE_ABLATIONS: dict[str, tuple[str, pipe.Stage] | dict[str, dict[str, Any]]
 }
 
 
-def pipeline_detector(palette: Palette,
-                      change: tuple[str, pipe.Stage] | dict[str, dict[str, Any]] | None = None,
-                      ) -> Callable[[Image], list[Mark]]:
-    """The pipeline detector of ``palette`` with one :data:`PIPELINE_ABLATIONS` entry applied
-    (``None``: none)."""
-    config = pipe.DetectorConfig()
-    stages = pipe.STAGES
+def ablated(palette: Palette, change: tuple[str, Stage] | dict[str, dict[str, Any]] | None = None,
+            ) -> Callable[[Image], list[Mark]]:
+    """The detector of ``palette`` with one :data:`ABLATIONS` entry applied (``None``: none)."""
+    config = DetectorConfig()
+    stages = STAGES
     if isinstance(change, tuple):
-        stages = tuple(change if name == change[0] else (name, st) for name, st in pipe.STAGES)
+        stages = tuple(change if name == change[0] else (name, st) for name, st in STAGES)
     elif change:
         config = config.with_(**change)
-    return lambda image: list(pipe.run_stages(image, palette, config, stages=stages).marks)
-
-
-def _ablated(change: tuple[str, pipe.Stage] | dict[str, dict[str, Any]],
-             ) -> Callable[[Palette], Callable[[Image], list[Mark]]]:
-    return lambda palette: pipeline_detector(palette, change)
+    return lambda image: list(run_stages(image, palette, config, stages=stages).marks)
 
 
 def half(corpus: str, name: str) -> Half:
@@ -416,8 +392,9 @@ def holdout_report(root: str | Path, *, ablate: bool = True, **sizes: int) -> di
         halves = {h: [f for f in frames if half(f.corpus, f.name) == h]
                   for h in ("tuning", "held_out")}
 
-        def detector(**change: Any) -> Callable[[Palette], Detect]:
-            return lambda palette: Detector(palette, replace(DetectorConfig(), **change)).detect
+        def detector(change: tuple[str, Stage] | dict[str, dict[str, Any]] | None = None,
+                     ) -> Callable[[Palette], Detect]:
+            return lambda palette: ablated(palette, change)
 
         out: dict[str, Any] = {"split": "sha256(corpus/name)[0] even: tuning; odd: held out",
                                "detector": {h: score(fs, detector()) for h, fs in halves.items()}}
@@ -425,16 +402,9 @@ def holdout_report(root: str | Path, *, ablate: bool = True, **sizes: int) -> di
             held = halves["held_out"]
             table: dict[str, Any] = {"all stages": out["detector"]["held_out"]}
             for stage, change in ABLATIONS.items():
-                table[f"without {stage}"] = score(held, detector(**change))
+                table[f"without {stage}"] = score(held, detector(change))
             table["least OpenCV detector"] = score(held, least_opencv_detector)
             out["ablation_held_out"] = table
-        out["pipeline"] = {h: score(fs, pipeline_detector) for h, fs in halves.items()}
-        if ablate:
-            held = halves["held_out"]
-            rows: dict[str, Any] = {"all stages": out["pipeline"]["held_out"]}
-            for part, off in PIPELINE_ABLATIONS.items():
-                rows[f"without {part}"] = score(held, _ablated(off))
-            out["pipeline_ablation_held_out"] = rows
     finally:
         cv2.setNumThreads(previous)
     return out

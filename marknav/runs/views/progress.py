@@ -8,7 +8,7 @@ no step finished: a silent pipe looks hung) and one at the end:
     evaluate slalom: 12/20 done, 11 successes, 1:02 elapsed, ETA 0:43
 
 :func:`slow_status` shows a message while a block runs, but only when the block takes longer
-than ``after_s`` (a spinner on a terminal, one line otherwise): "preparing the detector (first
+than ``after_s`` (a spinner on a terminal, one line otherwise): "preparing the simulator (first
 run only)…" while the compiled loops are built on a cold cache, nothing on a warm one.
 
 Both write to the stream the command line hands them (stderr), never to stdout, so a command's

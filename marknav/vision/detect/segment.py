@@ -35,6 +35,10 @@ __all__ = ["SegmentConfig", "cut_along_edges", "segment"]
 CUT_PX = 2
 #: Fewest contour points an ellipse is fitted to.
 _MIN_POINTS = 5
+#: How far (search px) a whole mark's fitted outline may reach past the centres of the frame's
+#: edge pixels: the outline runs half a pixel inside the paint's edge, so a mark whose paint
+#: just reaches the frame's last pixels fits to about there; one cut deeper is a partial mark.
+_EDGE_SLACK_PX = 1.0
 #: Most pieces of one colour that are no mark alone looked at for joining in pairs: more are
 #: a textured surface's crumbs, and pairs of them cost their square.
 _MAX_LOOSE = 40
@@ -102,7 +106,12 @@ def _pieces(contour: Mat, mask: Mat, bgr: Mat | None, config: SegmentConfig,
     whole mark's shape, the pieces the frame's edges cut it into (within its bounding box)."""
     area = cv2.contourArea(contour)
     frame = _frame_if_cut(contour, mask)
-    fit = whole(Blob(colour, contour, area)) if frame is None else None
+    fit = whole(Blob(colour, contour, area))
+    if fit is not None and frame is not None:
+        if _within(fit, frame):
+            frame = None  # a whole mark whose rim just reaches the edge's pixels
+        else:
+            fit = None
     if fit is not None or bgr is None or area < _MIN_CUT_AREA_PX:
         return [Blob(colour, contour, area, fit) if fit is not None or frame is None
                 else _partial(colour, contour, area, frame, whole)]
@@ -134,6 +143,15 @@ def _partial(colour: int, contour: Mat, area: float, frame: tuple[int, int],
     surface of the mark's hue reaching the edge is cut from the mark first)."""
     return Blob(colour, contour, area, whole(Blob(colour, contour, area, frame=frame)),
                 frame=frame)
+
+
+def _within(fit: Ellipse, frame: tuple[int, int]) -> bool:
+    """Whether the ellipse ``fit`` (centre, semi-axes) lies inside a ``frame`` (width, height)
+    image, up to half a pixel past its edge pixels' centres (the pixels' own extent)."""
+    (x, y), (a, _), _ = fit
+    w, h = frame
+    return a - _EDGE_SLACK_PX <= x <= w - 1 - a + _EDGE_SLACK_PX and \
+        a - _EDGE_SLACK_PX <= y <= h - 1 - a + _EDGE_SLACK_PX
 
 
 def _frame_if_cut(contour: Mat, mask: Mat) -> tuple[int, int] | None:

@@ -60,9 +60,6 @@ _PARTIAL_RADIUS = 1.6
 #: Largest share of its smallest bounding rectangle a blob may fill: an ellipse fills π/4 ≈
 #: 0.785 of it, a disc of a few pixels' radius digitised up to 0.88; a rectangle all of it.
 _MAX_EXTENT = 0.9
-#: Search-image semi-major axis (px) under which a blob's shape is checked again at full
-#: resolution (a bar of 12 × 7 search pixels has its corners rounded off there).
-_SMALL_PX = 8.0
 #: Points along an ellipse sampled for the share of it inside the frame.
 _OUTLINE_SAMPLES = 64
 #: A blob's longer side spans at least this share of a smallest mark's diameter (the major
@@ -335,7 +332,7 @@ def _measure_blob(scene: Scene, blob: Blob, config: ShapeConfig) -> Mark | None:
             return None
         alpha = np.zeros_like(alpha)
         cv2.fillConvexPoly(alpha, cv2.convexHull(paint), 1.0)
-    elif fit[1][0] < _SMALL_PX and _boxy(alpha):
+    elif _boxy(alpha):  # a bar's corners are square in the frame's own pixels at any size
         return None
     ellipse = coverage_ellipse(alpha)
     if ellipse is None:

@@ -223,7 +223,7 @@ def test_exit_1_under_min_success(mission_file: Path, scripted_runs: list[int],
     assert f"replay: marknav run {mission_file} --world random --seed 10" in out
     # (a busy machine may take over a second to load the compiled loops: a status line)
     lines = [line for line in err.strip().splitlines()
-             if not line.startswith("preparing the detector")]
+             if not line.startswith("preparing the simulator")]
     # piped: progress lines (at the start, every 10 s, at the end), then the verdict
     assert lines[0].startswith(f"evaluate {mission_file.stem}: 0/20 runs done, ")
     assert lines[-2].startswith(f"evaluate {mission_file.stem}: 20/20 runs done, 18 successes")
@@ -239,7 +239,7 @@ def test_exit_0_at_or_over_min_success(mission_file: Path, scripted_runs: list[i
     d = json.loads(out)
     assert d["success_rate"] == 0.9 and [f["seed"] for f in d["failures"]] == [10, 20]
     # stdout is the JSON alone; stderr has the piped progress lines only
-    assert all(line.startswith(("evaluate ", "preparing the detector"))
+    assert all(line.startswith(("evaluate ", "preparing the simulator"))
                for line in err.splitlines())
     assert main(["evaluate", str(mission_file), "--runs", "9", "--seed", "1"]) == 0
 

@@ -62,13 +62,13 @@ def test_the_mujoco_corpus_has_truth_where_the_marks_are_drawn() -> None:
 @pytest.mark.parametrize("part", ["photometry (gain and light colour)", "suppression",
                                   "cut along colour edges"])
 def test_the_pipeline_ablation_switches_one_part_off(part: str) -> None:
-    from marknav.runs.metrics.holdout import PIPELINE_ABLATIONS, pipeline_detector
+    from marknav.runs.metrics.holdout import ABLATIONS, ablated
 
     dim = np.full((240, 320, 3), 12, np.uint8)
     cv2.circle(dim, (160, 120), 25, (0, 0, 40), -1, cv2.LINE_AA)  # a red mark in a dim room
-    found = pipeline_detector(DEFAULT_PALETTE)(dim)
+    found = ablated(DEFAULT_PALETTE)(dim)
     assert [m.colour for m in found] == ["red"]
-    off = pipeline_detector(DEFAULT_PALETTE, PIPELINE_ABLATIONS[part])(dim)
+    off = ablated(DEFAULT_PALETTE, ABLATIONS[part])(dim)
     # Without the exposure gain the mark is under its value floor; the other parts do not
     # change an isolated mark.
     assert [m.colour for m in off] == ([] if part.startswith("photometry") else ["red"])
