@@ -233,37 +233,40 @@ def run_tree(
             report.outcome, report.reason = ABORTED, "interrupted (SIGINT)"
         raise
     finally:
-        # Wheels first, then everything else.
-        try:
-            env.robot.stop()
-        except Exception:  # the link may be gone; the environment's close() tries again
-            log.exception("stopping the wheels failed")
-        try:
-            tree.interrupt()
-        except Exception:
-            log.exception("interrupting the tree failed")
-        report.sim_time_s = env.clock.now() - t0
-        report.wall_time_s = time.perf_counter() - wall0
-        report.set_tick_times(tick_times)
-        if waypoint_outcomes is not None:
-            for wp, outcome in zip(report.waypoints, waypoint_outcomes(), strict=False):
-                wp.outcome = outcome
-        try:
-            env.finish(report)
-        except Exception:
-            log.exception("collecting ground truth failed")
-        report.safety_events = [
-            {**ev, "t": round(max(0.0, float(ev["t"]) - t0), 4)} if "t" in ev else dict(ev)
-            for ev in env.safety_events()
-        ]
-        for ev in report.safety_events[n_safety:]:  # the stop above, a late fault
-            events.write(ev.get("t", report.sim_time_s), "safety",
-                         **{k: v for k, v in ev.items() if k != "t"})
-        if observer is not None:
+        # A signal arriving while the run is being closed is raised once the closing
+        # records are written: the event log always ends with the run's `end`.
+        with signals.deferred():
+            # Wheels first, then everything else.
             try:
-                observer.finish(report)
+                env.robot.stop()
+            except Exception:  # the link may be gone; the environment's close() tries again
+                log.exception("stopping the wheels failed")
+            try:
+                tree.interrupt()
             except Exception:
-                log.exception("finishing the run log failed")
-        events.write(report.sim_time_s, "end", outcome=report.outcome, reason=report.reason,
-                     ticks=report.ticks)
+                log.exception("interrupting the tree failed")
+            report.sim_time_s = env.clock.now() - t0
+            report.wall_time_s = time.perf_counter() - wall0
+            report.set_tick_times(tick_times)
+            if waypoint_outcomes is not None:
+                for wp, outcome in zip(report.waypoints, waypoint_outcomes(), strict=False):
+                    wp.outcome = outcome
+            try:
+                env.finish(report)
+            except Exception:
+                log.exception("collecting ground truth failed")
+            report.safety_events = [
+                {**ev, "t": round(max(0.0, float(ev["t"]) - t0), 4)} if "t" in ev else dict(ev)
+                for ev in env.safety_events()
+            ]
+            for ev in report.safety_events[n_safety:]:  # the stop above, a late fault
+                events.write(ev.get("t", report.sim_time_s), "safety",
+                             **{k: v for k, v in ev.items() if k != "t"})
+            if observer is not None:
+                try:
+                    observer.finish(report)
+                except Exception:
+                    log.exception("finishing the run log failed")
+            events.write(report.sim_time_s, "end", outcome=report.outcome, reason=report.reason,
+                         ticks=report.ticks)
     return report
