@@ -20,10 +20,10 @@ from pathlib import Path
 import pytest
 import yaml
 
-from marknav.core.clock import MonotonicClock
 from marknav.robot.packets import OIMode
 from marknav.sim.pty import PtyServer
-from marknav.sim.simulated_create import SimulatedCreate, WheelSpeeds
+from marknav.sim.simulated_create import WheelSpeeds
+from tests.faultkit import pty_robot
 
 ROOT = Path(__file__).resolve().parents[2]
 SLALOM = ROOT / "missions" / "slalom.yaml"
@@ -45,12 +45,8 @@ def wait_until(cond: Callable[[], bool], timeout: float, step: float = 0.002) ->
 
 @pytest.fixture
 def robot() -> Iterator[PtyServer]:
-    server = PtyServer(SimulatedCreate(clock=MonotonicClock()))
-    server.start()
-    try:
+    with pty_robot() as server:
         yield server
-    finally:
-        server.close()
 
 
 def hardware_mission(tmp_path: Path) -> Path:

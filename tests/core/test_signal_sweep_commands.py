@@ -20,11 +20,11 @@ from pathlib import Path
 import pytest
 import yaml
 
-from marknav.core.clock import MonotonicClock
 from marknav.core.signals import ENDING_SIGNALS
 from marknav.sim.pty import PtyServer
-from marknav.sim.simulated_create import SimulatedCreate, WheelSpeeds
+from marknav.sim.simulated_create import WheelSpeeds
 from marknav.testing import BASE_MISSION
+from tests.faultkit import pty_robot
 
 ROOT = Path(__file__).resolve().parents[2]
 SLALOM = ROOT / "missions" / "slalom.yaml"
@@ -123,12 +123,8 @@ def test_every_ending_signal_at_any_moment_of_an_evaluation(tmp_path: Path) -> N
 
 @pytest.fixture
 def robot() -> Iterator[PtyServer]:
-    server = PtyServer(SimulatedCreate(clock=MonotonicClock()))
-    server.start()
-    try:
+    with pty_robot() as server:
         yield server
-    finally:
-        server.close()
 
 
 def test_every_ending_signal_at_any_moment_of_an_odometry_calibration(
