@@ -223,7 +223,7 @@ def run(args: argparse.Namespace) -> int:
     stage = "while checking the mission"
     started = False
     try:
-        problems = loaded_mission_problems(mission, overrides, world=world)
+        problems = loaded_mission_problems(mission, overrides, world=world, engine=args.engine)
         if problems:
             raise InputErrors(problems)
         if args.engine is None and mission.sim is not None and mission.sim.engine == "mujoco":

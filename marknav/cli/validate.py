@@ -2,7 +2,9 @@
 
 Each mission goes through :func:`marknav.runs.loop.checks.check_mission`, the checks ``run`` and
 ``tree`` make before they start (the schema, ``--set`` settings, plugins, the tree against the
-palette and the route, building the tree, the simulator world named by ``sim.world``). Valid
+palette and the route, building the tree, the simulator world named by ``sim.world``, and the
+conditions it and ``sim.conditions`` set against the engine, ``--engine`` or ``sim.engine``; for
+MuJoCo the world's model is built, without rendering, when MuJoCo is installed). Valid
 files print ``MISSION: ok (route: red → green → red → blue, 4 waypoints)`` on stdout; problems go
 to stderr, one ``FILE:LINE:COLUMN: field: message`` line each, every problem of a file at once.
 Exit code 0 if all files are valid, 2 otherwise (design brief, "Commands").
@@ -45,6 +47,10 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--world", metavar="WORLD",
                    help="check against this simulator world file instead of each mission's "
                         "sim.world (as 'run --world WORLD' would run)")
+    p.add_argument("--engine", choices=("builtin", "mujoco"),
+                   help="check for this simulator engine (default: each mission's sim.engine): "
+                        "conditions the engine does not draw are refused and, for mujoco, the "
+                        "world's MuJoCo model is built, as 'run --engine' would")
     p.set_defaults(func=run)
 
 
@@ -57,7 +63,8 @@ def run(args: argparse.Namespace) -> int:
     invalid = 0
     for path in args.missions:
         try:
-            mission, errors = check_mission(mission_path(path), overrides, world=args.world)
+            mission, errors = check_mission(mission_path(path), overrides, world=args.world,
+                                            engine=args.engine, try_engine=True)
         except InputError as exc:
             mission, errors = None, [exc]
         if errors:

@@ -50,6 +50,7 @@ import numpy.typing as npt
 from marknav.core.clock import Clock
 from marknav.planning.kinematics import Pose
 from marknav.sim.camera_model import SIM_FOCAL_PX, SIM_HEIGHT, SIM_WIDTH, sim_range_law
+from marknav.sim.camera_timing import FrameClock, expose, exposure_gain, exposure_phase
 from marknav.sim.lens import LensWarp, lens_warp
 from marknav.sim.projection import RIM_POINTS, MarkGeometry, ProjectedMark, inset
 from marknav.sim.projection import warm_up as _warm_projection
@@ -72,6 +73,7 @@ __all__ = [
     "mark_inks",
     "project_marks",
     "render",
+    "tilt_rotation",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -81,8 +83,6 @@ AA_EDGE_BIAS_PX = 0.6
 _SHIFT = 8  # fixed-point bits for cv2.fillPoly
 #: Elevation of the far wall's base below the horizon (camera above the floor), degrees.
 _WALL_BASE_DEG = 1.5
-#: Capture times a read looks back over (a camera far faster than the control loop).
-_MAX_CAPTURES_PER_READ = 64
 
 
 @dataclass(frozen=True)
@@ -147,15 +147,11 @@ def project_marks(world: World, pose: Pose, config: CameraConfig = CameraConfig(
     return MarkGeometry(world).project(pose, config)
 
 
-def tilt_homography(config: CameraConfig, *, pitch_deg: float,
-                    roll_deg: float) -> FloatArray | None:
-    """The image map of a camera turned by ``pitch_deg`` (up) and then ``roll_deg`` (about its
-    optical axis) from level: H = K·R·K⁻¹ (a rotation about the centre of projection maps the
-    whole image by a homography; Hartley & Zisserman, 2nd ed., §8.4.2). Camera coordinates x
-    right, y down, z forward; a level point ahead goes to the row cy + f·tan(pitch). ``None``
-    for a level camera."""
-    if pitch_deg == 0.0 and roll_deg == 0.0:
-        return None
+def tilt_rotation(*, pitch_deg: float, roll_deg: float) -> FloatArray:
+    """The rotation R of a camera turned by ``pitch_deg`` (up) and then ``roll_deg`` (about its
+    optical axis) from level, in camera coordinates (x right, y down, z forward): a ray of the
+    level camera has coordinates R·d in the turned one (its rows are the turned camera's axes in
+    the level camera's coordinates)."""
     p, r = math.radians(pitch_deg), math.radians(roll_deg)
     pitch = np.array([[1.0, 0.0, 0.0],
                       [0.0, math.cos(p), math.sin(p)],
@@ -163,9 +159,20 @@ def tilt_homography(config: CameraConfig, *, pitch_deg: float,
     roll = np.array([[math.cos(r), -math.sin(r), 0.0],
                      [math.sin(r), math.cos(r), 0.0],
                      [0.0, 0.0, 1.0]])
+    return np.asarray(roll @ pitch, dtype=np.float64)
+
+
+def tilt_homography(config: CameraConfig, *, pitch_deg: float,
+                    roll_deg: float) -> FloatArray | None:
+    """The image map of a camera turned by ``pitch_deg`` (up) and then ``roll_deg`` (about its
+    optical axis) from level (:func:`tilt_rotation`): H = K·R·K⁻¹ (a rotation about the centre
+    of projection maps the whole image by a homography; Hartley & Zisserman, 2nd ed., §8.4.2).
+    A level point ahead goes to the row cy + f·tan(pitch). ``None`` for a level camera."""
+    if pitch_deg == 0.0 and roll_deg == 0.0:
+        return None
     k = np.array([[config.focal_px, 0.0, config.cx], [0.0, config.focal_px, config.cy],
                   [0.0, 0.0, 1.0]])
-    h = k @ roll @ pitch @ np.linalg.inv(k)
+    h = k @ tilt_rotation(pitch_deg=pitch_deg, roll_deg=roll_deg) @ np.linalg.inv(k)
     return np.asarray(h / h[2, 2], dtype=np.float64)
 
 
@@ -419,12 +426,7 @@ class Renderer:
         turning), smeared by a box filter of that length; ``gain``: the exposure's brightness
         factor. Both apply to the scene, before the sensor's noise."""
         if abs(motion_px) >= 1.0 or gain != 1.0:
-            img = self.render(pose, None)
-            if abs(motion_px) >= 1.0:
-                length = max(2, round(abs(motion_px)))
-                img = np.asarray(cv2.blur(img, (length, 1)), dtype=np.uint8)
-            if gain != 1.0:
-                img = np.asarray(cv2.convertScaleAbs(img, alpha=gain), dtype=np.uint8)
+            img = expose(self.render(pose, None), motion_px=motion_px, gain=gain)
             return self._add_noise(img, rng)
         if (self._noise is not None and rng is not None and self._warp is None
                 and not self._poles and self._tilt is None):
@@ -572,17 +574,13 @@ class SimCamera:
         self._pose_at = pose_at
         self._clock = clock
         self._rng = np.random.default_rng([int(seed), 0xCA3E7A])
-        self._drops = np.random.default_rng([int(seed), 0xD809])
         self._buffer: deque[Frame] = deque(maxlen=latency + 1)
         self._index = 0
         self._closed = False
-        self._pose_at = pose_at
         c = world.conditions
         self.conditions = c
-        self._t0 = clock.now()
-        self._last_capture = -1  # index of the last capture time looked at
-        self._phase = float(np.random.default_rng([int(seed), 0xE7]).uniform(0.0, 2 * math.pi))
-        self.frames_dropped = 0
+        self._frames = FrameClock(c, t0=clock.now(), seed=seed)
+        self._phase = exposure_phase(seed)
 
     @property
     def config(self) -> CameraConfig:
@@ -602,31 +600,15 @@ class SimCamera:
         if self._closed:
             return None
         now = self._clock.now() - self.delay_s  # the newest capture time delivered now
-        c = self.conditions
-        if c.frame_rate_hz > 0:
-            period = 1.0 / c.frame_rate_hz
-            k = math.floor((now - self._t0) / period + 1e-9)
-            first = max(self._last_capture + 1, k - _MAX_CAPTURES_PER_READ + 1)
-            self._last_capture = k
-            # every frame taken since the last read may be lost; the newest one that was not
-            # is delivered
-            kept = [j for j in range(first, k + 1) if not self._dropped()]
-            if not kept and self._buffer:
-                return self._buffer[0]
-            t = self._t0 + (kept[-1] if kept else k) * period
-        else:
-            if self._dropped() and self._buffer:
-                return self._buffer[0]
-            t = now
-        self._take(t, self._clock.now())
+        t = self._frames.capture(now, have_frame=bool(self._buffer))
+        if t is not None:
+            self._take(t, self._clock.now())
         return self._buffer[0]
 
-    def _dropped(self) -> bool:
-        p = self.conditions.dropped_frames
-        if p > 0 and self._drops.random() < p:
-            self.frames_dropped += 1
-            return True
-        return False
+    @property
+    def frames_dropped(self) -> int:
+        """Frames lost so far (``dropped_frames``)."""
+        return self._frames.frames_dropped
 
     def _take(self, t: float, now: float) -> None:
         """Render the frame captured at ``t`` and put it in the delivery buffer."""
@@ -638,10 +620,7 @@ class SimCamera:
             before = pose_at(t - c.exposure_ms / 1000.0)
             turned = math.remainder(pose.theta - before.theta, 2 * math.pi)
             motion = turned * self.config.focal_px
-        gain = 1.0
-        if c.exposure_drift > 0:
-            gain = 1.0 + c.exposure_drift * math.sin(
-                2 * math.pi * t / c.exposure_period_s + self._phase)
+        gain = exposure_gain(c, t, self._phase)
         image = self.renderer.render(pose, self._rng, motion_px=motion, gain=gain)
         self._buffer.append(Frame(image=image, t=t, index=self._index))
         self._index += 1

@@ -118,6 +118,12 @@ class MujocoBody:
         return Pose(float(pos[0]) * 1000.0, float(pos[1]) * 1000.0,
                     math.atan2(float(r[3]), float(r[0])))
 
+    @property
+    def yaw_rate(self) -> float:
+        """The body's turn rate about the vertical now, rad/s (counter-clockwise positive): the
+        free joint's angular velocity, in the body's frame, about its z axis."""
+        return float(self.data.qvel[self._dfree + 5])
+
     def set_pose(self, pose: Pose) -> None:
         q, d = self._qfree, self._dfree
         self.data.qpos[q:q + 2] = (pose.x / 1000.0, pose.y / 1000.0)

@@ -1,17 +1,24 @@
 """MuJoCo's renderer as the robot's camera: a :class:`marknav.vision.sources.FrameSource`.
 
 Each :meth:`MujocoCamera.read` renders the model's ``eye`` camera (fixed to the robot's body at
-the camera height: the mission's focal length and principal point as an exact pinhole) at the
-current physics state and clock time, in BGR. The world's image conditions that belong to a
-camera rather than to the room are then applied as the built-in camera applies them: the lens's
-distortion (the pinhole image is rendered on a larger canvas and remapped,
-:class:`marknav.sim.lens.LensWarp`), a Gaussian blur of σ ``blur_sigma_px`` and additive
-Gaussian noise of σ ``noise_sigma`` (from a tile drawn once, at a random offset per frame);
-``latency_frames`` delays delivery by whole frames, and the world's ``camera_latency_s +
-processing_s`` in continuous time: MuJoCo renders the present state only, so every read renders
-now into a short queue and delivers the newest frame captured at least that long ago, stamped
-with its capture time (the built-in camera renders the past pose directly). Light level and
-colour come from the room's lamps (the model), not from a gain.
+the camera height, turned by the mount's pitch and roll: the mission's focal length and principal
+point as an exact pinhole) at the current physics state and clock time, in BGR. The world's image
+conditions that belong to a camera rather than to the room are then applied as the built-in
+camera applies them: the lens's distortion (the pinhole image is rendered on a larger canvas and
+remapped, :class:`marknav.sim.lens.LensWarp`), a Gaussian blur of σ ``blur_sigma_px``, the
+exposure (:mod:`marknav.sim.camera_timing`: the smear of the body's turn rate over
+``exposure_ms``, the gain of ``exposure_drift``) and additive Gaussian noise of σ
+``noise_sigma`` (from a tile drawn once, at a random offset per frame).
+
+Time: with ``frame_rate_hz`` the camera takes frames on its own clock and loses
+``dropped_frames`` of them (:class:`~marknav.sim.camera_timing.FrameClock`, the built-in camera's
+clock): a read with no new frame taken since the previous one delivers the previous frame again
+(same index). MuJoCo renders the present state only, so a frame taken between two reads is
+rendered at the read that finds it, and stamped with that time. ``latency_frames`` delays
+delivery by whole frames, and the world's ``camera_latency_s + processing_s`` in continuous
+time: each frame taken goes into a short queue and a read delivers the newest one captured at
+least that long ago, stamped with its capture time (the built-in camera renders the past pose
+directly). Light level and colour come from the room's lamps (the model), not from a gain.
 """
 
 from __future__ import annotations
@@ -25,6 +32,7 @@ import numpy as np
 
 from marknav.core.clock import Clock
 from marknav.sim.builtin_camera import CameraConfig
+from marknav.sim.camera_timing import FrameClock, expose, exposure_gain, exposure_phase, smear_px
 from marknav.sim.mujoco.body import MujocoBody
 from marknav.sim.mujoco.gl import make_renderer
 from marknav.vision.estimate import PowerLaw
@@ -70,6 +78,9 @@ class MujocoCamera:
         self._late: deque[Frame] = deque()  # rendered, not yet old enough to deliver
         self._index = 0
         self._closed = False
+        self._conditions = cond
+        self._frames = FrameClock(cond, t0=clock.now(), seed=seed)
+        self._phase = exposure_phase(seed)
 
     @property
     def intrinsics(self) -> Intrinsics:
@@ -83,8 +94,14 @@ class MujocoCamera:
         """The pinhole's range law d = f·R / r (paper eq. 18) as a power law."""
         return PowerLaw(a=self.config.focal_px * mark_radius_mm, b=-1.0)
 
-    def render(self, *, noise: bool = True) -> Image:
-        """One BGR frame of the current state (blur, and noise unless ``noise`` is off)."""
+    @property
+    def frames_dropped(self) -> int:
+        """Frames lost so far (``dropped_frames``)."""
+        return self._frames.frames_dropped
+
+    def render(self, *, noise: bool = True, t: float | None = None) -> Image:
+        """One BGR frame of the current state (blur, the exposure of a frame captured at ``t``
+        (s; default: now), and noise unless ``noise`` is off)."""
         r = self._renderer
         r.update_scene(self._body.data, camera="eye")
         image = np.ascontiguousarray(cv2.cvtColor(r.render(), cv2.COLOR_RGB2BGR))
@@ -93,6 +110,10 @@ class MujocoCamera:
         if self._blur > 0:
             k = 2 * math.ceil(3.0 * self._blur) + 1
             image = np.asarray(cv2.GaussianBlur(image, (k, k), self._blur), dtype=np.uint8)
+        c = self._conditions
+        when = self._clock.now() if t is None else t
+        image = expose(image, motion_px=smear_px(self._body.yaw_rate, c, self.config.focal_px),
+                       gain=exposure_gain(c, when, self._phase))
         if noise and self._noise is not None:
             h, w = self.config.height, self.config.width
             oy, ox = int(self._rng.integers(0, h + 1)), int(self._rng.integers(0, w + 1))
@@ -105,12 +126,15 @@ class MujocoCamera:
         if self._closed:
             return None
         now = self._clock.now()
-        self._late.append(Frame(image=self.render(), t=now, index=self._index))
-        self._index += 1
+        if self._frames.capture(now, have_frame=bool(self._late)) is not None:
+            self._late.append(Frame(image=self.render(t=now), t=now, index=self._index))
+            self._index += 1
         # the newest frame at least delay_s old (the oldest one while none is yet)
         while len(self._late) > 1 and self._late[1].t <= now - self.delay_s + 1e-9:
             self._late.popleft()
-        self._buffer.append(self._late[0])
+        head = self._late[0]
+        if not self._buffer or self._buffer[-1].index != head.index:
+            self._buffer.append(head)
         return self._buffer[0]
 
     def close(self) -> None:

@@ -7,11 +7,11 @@ them.
 - **Marks** are thin discs (2 mm) of the world's radius, their centres at the camera's height
   (:data:`CAMERA_HEIGHT_MM`), faces turned by ``yaw_deg`` (normal (sin yaw, −cos yaw, 0)), matte,
   coloured as the built-in simulator paints them (:func:`marknav.sim.builtin_camera.mark_bgr`: the
-  middle
-  of the colour's hue range, full saturation and value). Each stands on a thin pole behind the
-  disc and a round base of the mark's radius, :data:`MARK_BASE_HEIGHT_MM` high: the base is what
-  the robot's bumper can touch, so a collision happens where the built-in engine's (a mark is a
-  circle of its radius in the top view).
+  middle of the colour's hue range at full value, each mark's printed saturation and hue offset
+  from :func:`~marknav.sim.builtin_camera.mark_inks`), lifted by ``mark_height_offset_mm``.
+  Each stands on a thin pole behind the disc and a round base of the mark's radius,
+  :data:`MARK_BASE_HEIGHT_MM` high: the base is what the robot's bumper can touch, so a collision
+  happens where the built-in engine's (a mark is a circle of its radius in the top view).
 - **Walls** and **boxes** of the world are boxes :data:`OBSTACLE_HEIGHT_MM` high; the **room** is
   a floor and four walls :data:`ROOM_MARGIN_MM` beyond the course, so the camera sees a room.
 - **The robot** (:class:`CreateSpec`, a Create 2): a 3.6 kg cylinder body (the mission's robot
@@ -24,7 +24,8 @@ them.
   Wheel mismatch and slip of the world's conditions are effective tyre radii: the encoders count
   the nominal 72 mm tyre, the ground moves by the effective one.
 - **The camera** is fixed to the body at the camera height and ``forward_offset_mm``, looking
-  along the heading, with the camera's focal length and principal point as MJCF intrinsics
+  along the heading (turned up by ``camera_pitch_deg`` and about its axis by ``camera_roll_deg``),
+  with the camera's focal length and principal point as MJCF intrinsics
   (``focalpixel``, ``principalpixel``; the ``fovy`` is then 2·atan(h / 2f)).
 
 :func:`build_model` returns the MJCF text and the in-memory assets (textures) for
@@ -39,7 +40,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from marknav.sim.builtin_camera import CameraConfig, mark_bgr
+from marknav.sim.builtin_camera import CameraConfig, mark_bgr, mark_inks, tilt_rotation
 from marknav.sim.mujoco.scene import Light, MujocoScene, near_hue
 from marknav.sim.scenery import room_photo
 from marknav.sim.world.schema import World
@@ -271,18 +272,20 @@ def build_model(
     body += _lights(scene, (x0 + ROOM_MARGIN_MM, y0 + ROOM_MARGIN_MM, x1 - ROOM_MARGIN_MM,
                             y1 - ROOM_MARGIN_MM), (r, g, b), shadows)
 
-    # the marks
-    for i, mark in enumerate(world.marks):
+    # the marks, printed as the built-in engine paints them (each one's saturation and hue)
+    centre_z = CAMERA_HEIGHT_MM + world.conditions.mark_height_offset_mm
+    for i, (mark, (sat, hue)) in enumerate(zip(world.marks, mark_inks(world), strict=True)):
         rad = mark.radius()
         nx, ny = mark.normal
-        rgb = _rgb(mark_bgr(by_name[mark.colour])) if mark.colour in by_name else "0.5 0.5 0.5"
+        rgb = (_rgb(mark_bgr(by_name[mark.colour], saturation=sat, hue_offset=hue))
+               if mark.colour in by_name else "0.5 0.5 0.5")
         mx, my = mark.x_mm, mark.y_mm
         body.append(f'<geom name="mark{i}" type="cylinder" {ghost} '
-                    f'pos="{_m(mx)} {_m(my)} {_m(CAMERA_HEIGHT_MM)}" zaxis="{_v(nx, ny, 0)}" '
+                    f'pos="{_m(mx)} {_m(my)} {_m(centre_z)}" zaxis="{_v(nx, ny, 0)}" '
                     f'size="{_m(rad)} {_m(MARK_THICKNESS_MM / 2)}" rgba="{rgb} 1" '
                     f'material="matte"/>')
         # the pole behind the disc, from the base to the disc's centre
-        pole_top = CAMERA_HEIGHT_MM
+        pole_top = max(centre_z, MARK_BASE_HEIGHT_MM)
         px, py = mx - nx * (MARK_POLE_RADIUS_MM + MARK_THICKNESS_MM), my - ny * (
             MARK_POLE_RADIUS_MM + MARK_THICKNESS_MM)
         body.append(f'<geom name="mark{i}_pole" type="cylinder" {ghost} rgba="0.3 0.3 0.3 1" '
@@ -383,6 +386,21 @@ def _intrinsics(camera: CameraConfig) -> str:
             f'sensorsize="{_v(w * 1e-5, h * 1e-5)}"')
 
 
+#: The level camera's axes (OpenCV: x right, y down, z forward) in the robot's body frame
+#: (x forward, y left, z up), as columns.
+_LEVEL_CAMERA_IN_BODY = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+
+
+def _eye_axes(pitch_deg: float, roll_deg: float) -> str:
+    """MJCF ``xyaxes`` of the camera on a mount turned by ``pitch_deg`` (up) and ``roll_deg``
+    (:func:`marknav.sim.builtin_camera.tilt_rotation`): MuJoCo's camera x is the image's right,
+    its y the image's up (OpenCV's −y); it looks along its −z."""
+    rot = tilt_rotation(pitch_deg=pitch_deg, roll_deg=roll_deg)
+    right = _LEVEL_CAMERA_IN_BODY @ rot[0]
+    up = -(_LEVEL_CAMERA_IN_BODY @ rot[1])
+    return _v(*(float(v) + 0.0 for v in (*right, *up)))
+
+
 def _ctrl(robot: CreateSpec) -> tuple[float, float]:
     w = robot.max_speed_mm_s / (robot.wheel_diameter_mm / 2.0)
     return (-w, w)
@@ -434,6 +452,6 @@ def _robot_xml(world: World, robot: CreateSpec, camera: CameraConfig) -> str:
         f'pos="{_m(caster_x)} 0 {_m(caster_z)}" mass="0.02" rgba="0.2 0.2 0.2 1"/>'
         + "".join(wheels)
         + f'<camera name="eye" pos="{_m(camera.forward_offset_mm)} 0 {_m(cam_z)}" '
-        f'xyaxes="0 -1 0 0 0 1" {_intrinsics(camera)}/>'
+        f'xyaxes="{_eye_axes(c.camera_pitch_deg, c.camera_roll_deg)}" {_intrinsics(camera)}/>'
         f'</body>'
     )

@@ -1,6 +1,7 @@
 """Course checks: does a world fit a mission? One mark per waypoint, of the waypoint's colour
 (:func:`check_course`), and every mark's colour in the mission's palette
-(:func:`check_against_palette`). Errors name the world file's line and column."""
+(:func:`check_against_palette`), and every condition it sets drawn by the engine that runs it
+(:func:`check_engine_conditions`). Errors name the world file's line and column."""
 
 from __future__ import annotations
 
@@ -9,11 +10,13 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from marknav.core.errors import InputError, InputErrors
-from marknav.core.yamlio import Position
+from marknav.core.yamlio import Position, load_yaml_file
 from marknav.sim.world.schema import World
 from marknav.vision.palette import ColourRange
 
-__all__ = ["check_against_palette", "check_course"]
+__all__ = [
+    "BUILTIN_ONLY_CONDITIONS", "check_against_palette", "check_course", "check_engine_conditions",
+]
 
 
 def _error(message: str, where: str | None, pos: Position | None, field: str) -> InputError:
@@ -89,31 +92,42 @@ def check_against_palette(
         raise InputErrors(errors)
 
 
-#: The camera conditions only the built-in engine's camera renders: the MuJoCo engine's
-#: camera has no frame clock, exposure, mark colour spread or mount tilt of its own yet.
+#: The conditions only the built-in engine draws: its painted room (:mod:`marknav.sim.scenery`).
+#: The MuJoCo engine's room is the world's ``mujoco`` section
+#: (:class:`marknav.sim.mujoco.scene.MujocoScene`: lamps, textures, occluders, distractors).
+#: Every other condition acts in both engines.
 BUILTIN_ONLY_CONDITIONS = (
-    "frame_rate_hz", "dropped_frames", "exposure_ms", "exposure_drift", "mark_saturation",
-    "mark_saturation_spread", "mark_hue_spread", "camera_pitch_deg", "camera_roll_deg",
+    "floor", "floor_saturation", "wall", "wall_hue", "occluders", "distractors",
 )
 
 
 def check_engine_conditions(world: World, engine: str, file: str | Path | None = None,
                             keys: Sequence[str] | None = None, prefix: str = "conditions"
                             ) -> None:
-    """Raise :class:`~marknav.core.errors.InputError` (one per key) when ``engine`` cannot
-    render a condition the world sets away from its default (of ``keys`` only, when given):
+    """Raise :class:`~marknav.core.errors.InputError` (one per key, at its line in ``file``
+    when it is there) when ``engine`` cannot draw a condition the world sets away from its
+    default (of ``keys`` only, when given; ``prefix`` is where the conditions sit in ``file``):
     a condition silently ignored would make a run look tested under it when it was not."""
     if engine != "mujoco":
         return
     default = type(world.conditions)()
     where = str(file) if file is not None else world.source
-    errors = [
-        InputError(f"the MuJoCo engine does not model {key} (set to "
-                   f"{getattr(world.conditions, key)!r}); remove it or use --engine builtin",
-                   file=where, field=f"{prefix}.{key}")
-        for key in BUILTIN_ONLY_CONDITIONS
-        if (keys is None or key in keys)
-        and getattr(world.conditions, key) != getattr(default, key)
-    ]
-    if errors:
-        raise InputErrors(errors)
+    refused = [key for key in BUILTIN_ONLY_CONDITIONS
+               if (keys is None or key in keys)
+               and getattr(world.conditions, key) != getattr(default, key)]
+    if not refused:
+        return
+    doc = None
+    if where is not None:
+        try:
+            doc = load_yaml_file(where)
+        except InputError:  # not a file (a generated world's name): no lines to give
+            doc = None
+    errors = []
+    for key in refused:
+        pos = doc.position((*prefix.split("."), key)) if doc is not None else None
+        errors.append(_error(
+            f"the MuJoCo engine does not draw the built-in room's {key} (set to "
+            f"{getattr(world.conditions, key)!r}): its room is the world's mujoco section; "
+            "remove it or use --engine builtin", where, pos, f"{prefix}.{key}"))
+    raise InputErrors(errors)

@@ -176,7 +176,8 @@ class Conditions(_Strict):
       principal point.
     - ``mark_height_offset_mm``: how far the marks' centres stand above the camera (negative:
       below), mm; 0 is the paper's set-up, marks at camera height.
-    - Room (:mod:`marknav.sim.scenery`): ``floor`` (``plain``, ``wood``, ``carpet``) at
+    - The built-in engine's room (:mod:`marknav.sim.scenery`; MuJoCo's is the world's ``mujoco``
+      section, and it refuses these): ``floor`` (``plain``, ``wood``, ``carpet``) at
       ``floor_saturation``; ``wall`` (``plain`` or ``photo``); ``wall_hue`` (a hue that dominates
       the scene, or none); ``occluders`` (thin poles in front of the marks); ``distractors``
       (round objects of near-mark colours on the horizon, off the course).
