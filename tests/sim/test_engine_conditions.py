@@ -238,3 +238,21 @@ def test_lost_frames_are_lost_in_both_engines(engine: str) -> None:
         dropped = cam.frames_dropped
     assert 0.35 * reads < dropped < 0.65 * reads
     assert abs(len(set(indices)) - (reads - dropped)) <= 1
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_latency_in_frames_counts_the_frames_the_camera_took_not_the_reads(engine: str) -> None:
+    """With its own clock at 10 Hz read at 50 Hz, a camera two frames late delivers the frame
+    taken two frames (0.2 s) before the newest: the reads in between add no frames."""
+    clock = ManualClock()
+    late, now = [], []
+    with camera(engine, world_of((), frame_rate_hz=10.0, latency_frames=2), clock) as late_cam, \
+            camera(engine, world_of((), frame_rate_hz=10.0), clock) as cam:
+        for _ in range(50):
+            a, b = late_cam.read(), cam.read()
+            assert a is not None and b is not None
+            late.append(a.index)
+            now.append(b.index)
+            clock.advance(0.02)
+    assert late[:15] == [0] * 15  # the first frame until two more were taken
+    assert all(x == max(0, y - 2) for x, y in zip(late, now, strict=True))
