@@ -275,7 +275,7 @@ def _strict_number_message(msg: str, value: Any) -> str:
             return f"{msg}, not the text {shown!r}"
         return f"{msg}, not the text {shown!r} (write a number without quotes)"
     if isinstance(value, float) and msg.endswith("integer"):
-        return f"{msg}, not {value:g}"
+        return f"{msg}, not {value!r}"  # 7.0, not 7: what the file says
     return msg
 
 

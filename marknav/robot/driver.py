@@ -89,6 +89,13 @@ KEEPALIVE_PERIOD_S = 60.0
 KEEPALIVE_PULSE_S = 1.0
 #: Length of the wake pulse ``connect`` sends, s (a baud change needs three pulses of 50–500 ms).
 WAKE_PULSE_S = 0.1
+#: How long ``connect`` waits for the first good stream frame by default, s: a robot on the line
+#: answers within a few 15 ms stream periods, so 2 s without one means a wrong port, baud rate or
+#: model, or the robot off; a slow link's delay (a Bluetooth or Wi-Fi bridge) comes on top.
+FIRST_FRAME_TIMEOUT_S = 2.0
+#: Without a reader thread, how long ``connect`` lets the link run between reads while it waits
+#: for the first frame, s: well under the 15 ms stream period, so the wait ends within one.
+FIRST_FRAME_POLL_S = 0.002
 
 
 def default_stream_ids(model: Model, baudrate: int | None = None) -> tuple[int, ...]:
@@ -149,8 +156,14 @@ class CreateDriver:
         wheel_base_mm: odometry wheel base (default: the model's).
         start_pose: odometry start pose (default (0, 0) facing +y).
         stream_ids: packets to stream (default :func:`default_stream_ids`).
-        first_frame_timeout_s: ``connect`` fails if no good frame arrives in this many wall
-            seconds (``None``: do not wait).
+        first_frame_timeout_s: ``connect`` fails if no good frame arrives in this many seconds
+            (``None``: do not wait; the sensor watchdog then counts from the stream request).
+        wait_input: without a reader thread, what ``connect`` calls with a duration (s) to let
+            the link's bytes arrive while it waits for the first frame (default
+            ``time.sleep``; a lock-step simulation passes its step, so that its clock moves and
+            a slow simulated link delivers the stream). The wait ends after
+            ``first_frame_timeout_s`` on the driver's clock, or once the durations asked for add
+            up to it.
         settle_s: wall-time pause after Start and after the mode command.
         open_port: the port factory (default :func:`marknav.robot.transport.open_port`).
         reader_thread: read in a background thread (default). With False the owner calls
@@ -170,13 +183,14 @@ class CreateDriver:
         wheel_base_mm: float | None = None,
         start_pose: Pose | None = None,
         stream_ids: Sequence[int] | None = None,
-        first_frame_timeout_s: float | None = 2.0,
+        first_frame_timeout_s: float | None = FIRST_FRAME_TIMEOUT_S,
         settle_s: float = 0.05,
         open_port: Callable[..., SerialPort] = open_port,
         reader_thread: bool = True,
         brc_line: str | None = "rts",
         wake_pulse_s: float = WAKE_PULSE_S,
         odometry_scale: float = 1.0,
+        wait_input: Callable[[float], None] = time.sleep,
     ) -> None:
         try:
             self.model = Model.parse(model)
@@ -200,6 +214,7 @@ class CreateDriver:
         self._pulse_end: float | None = None  # clock time to release a keep-alive pulse
         self._last_pulse_t: float | None = None
         self.first_frame_timeout_s = first_frame_timeout_s
+        self._wait_input = wait_input
         self.settle_s = settle_s
         self._open_port = open_port
         self.reader_thread = reader_thread
@@ -377,11 +392,14 @@ class CreateDriver:
         if self.reader_thread:
             self.wait_for_sensors(timeout_s)
             return
-        deadline = time.monotonic() + timeout_s
+        # Time waited: the driver's clock where wait_input moves it (a simulator's step may
+        # run to its next stream tick), else the durations asked for (a clock that stands still).
+        start, asked = self.clock.now(), 0.0
         while self.process_input() == 0 and self.latest is None:
-            if self._link_error is not None or time.monotonic() > deadline:
+            if self._link_error is not None or max(self.clock.now() - start, asked) > timeout_s:
                 raise TimeoutError(self._link_error or "no sensor frame")
-            time.sleep(0.002)
+            self._wait_input(FIRST_FRAME_POLL_S)
+            asked += FIRST_FRAME_POLL_S
 
     def close(self) -> None:
         """Stop the wheels, pause the stream, return the OI to Passive, close the port.

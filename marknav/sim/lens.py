@@ -29,6 +29,7 @@ import numpy as np
 import numpy.typing as npt
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from marknav.core.yamlio import Number
 from marknav.sim.randomisation import bounds
 from marknav.vision.undistort import Intrinsics, undistort_points
 
@@ -43,9 +44,9 @@ PRINCIPAL_OFFSET_MAX = bounds("lens.principal_offset")[1]  # of the image's widt
 #: The distortion must stay monotonic out to this normalised radius (beyond any webcam's corner).
 _MONOTONIC_RHO = 1.2
 
-_Coeff = Annotated[float, Field(ge=-1.0, le=1.0, allow_inf_nan=False)]
-_Tangential = Annotated[float, Field(ge=-0.05, le=0.05, allow_inf_nan=False)]
-_Offset = Annotated[float, Field(ge=-0.2, le=0.2, allow_inf_nan=False)]
+_Coeff = Annotated[Number, Field(ge=-1.0, le=1.0, allow_inf_nan=False)]
+_Tangential = Annotated[Number, Field(ge=-0.05, le=0.05, allow_inf_nan=False)]
+_Offset = Annotated[Number, Field(ge=-0.2, le=0.2, allow_inf_nan=False)]
 
 
 class Lens(BaseModel):

@@ -7,10 +7,25 @@ exception or try to allocate tens of gigabytes. Here the file is read through
 the formats marknav accepts (PNG, JPEG, BMP, TIFF, WebP, PNM), and only an image of at most
 :data:`MAX_IMAGE_PIXELS` is handed to ``cv2.imdecode``. Any other format, a header that cannot
 be read, or a decoder failure is an :class:`~marknav.core.errors.InputError` naming the file.
+
+A JPEG that does not end with its end-of-image marker (``FF D9``; NUL padding after it is
+allowed) was cut short: a file copied in part, a camera frame lost in transit. OpenCV 5 refuses
+to decode it (an :class:`InputError` saying so), OpenCV 4 decodes it without a word, making up
+the rows after the cut; then one warning through :mod:`logging` names the file or stream (once
+per name: a stream of damaged frames is not a warning per frame).
+
+Other damage inside the compressed data is found only by decoding it, and libjpeg reports that
+itself (``Corrupt JPEG data: 2 extraneous bytes before marker 0xd9``) with ``fprintf`` on the
+process's standard error: OpenCV's log level (``cv2.utils.logging.setLogLevel``,
+``OPENCV_LOG_LEVEL``) does not reach it (measured on OpenCV 4.10 and 5.1), and catching it would
+mean redirecting file descriptor 2 around the decode, which is process-wide: it would swallow
+what other threads (a camera reader, logging) write meanwhile. So that line stays libjpeg's; the
+image it comes with decodes.
 """
 
 from __future__ import annotations
 
+import logging
 import re
 import struct
 from pathlib import Path
@@ -24,10 +39,17 @@ from marknav.core.inputfile import MAX_IMAGE_BYTES, read_bytes
 
 __all__ = ["MAX_IMAGE_PIXELS", "check_image_file", "decode_image", "image_size", "read_image"]
 
+log = logging.getLogger(__name__)
+
 Image = npt.NDArray[np.uint8]
 
 #: Largest image accepted: 50 megapixels (8660 × 5774), 150 MB once decoded to BGR.
 MAX_IMAGE_PIXELS = 50_000_000
+
+#: The marker that ends every whole JPEG (EOI).
+_JPEG_EOI = b"\xff\xd9"
+#: Names (files, streams) already warned about a cut-short JPEG: one warning each.
+_WARNED_CUT: set[str] = set()
 
 _JPEG_SOF = frozenset(range(0xC0, 0xD0)) - {0xC4, 0xC8, 0xCC}
 _PNM = re.compile(rb"P[1-6](?:\s+|#[^\n]*\n)+(\d+)(?:\s+|#[^\n]*\n)+(\d+)")
@@ -167,6 +189,7 @@ def decode_image(data: bytes, name: str, *, grey: bool = False) -> Image:
     """Decode an encoded image (BGR, or one channel with ``grey``) after checking the size its
     header claims."""
     fmt = _checked_format(data, name)
+    cut = fmt == "JPEG" and not data.rstrip(b"\x00").endswith(_JPEG_EOI)
     try:
         image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8),
                              cv2.IMREAD_GRAYSCALE if grey else cv2.IMREAD_COLOR)
@@ -174,7 +197,14 @@ def decode_image(data: bytes, name: str, *, grey: bool = False) -> Image:
         raise InputError(f"cannot decode the {fmt} image: {str(exc).strip()}",
                          file=name) from None
     if image is None:
-        raise InputError(f"cannot decode the {fmt} image (damaged or truncated?)", file=name)
+        why = ("truncated: no end-of-image marker at its end" if cut
+               else "damaged or truncated?")
+        raise InputError(f"cannot decode the {fmt} image ({why})", file=name)
+    if cut:
+        level = logging.DEBUG if name in _WARNED_CUT else logging.WARNING
+        _WARNED_CUT.add(name)
+        log.log(level, "%s: truncated JPEG (no end-of-image marker at its end): the decoder "
+                "made up the image after the cut", name)
     return np.asarray(image, dtype=np.uint8)
 
 

@@ -212,3 +212,24 @@ def test_close_releases_the_port_when_it_dies_between_two_of_closes_writes(robot
     sent = [c.opcode for c in list(robot.sim.commands)[n:]]
     assert sent == [Opcode.DRIVE_DIRECT, Opcode.DRIVE_DIRECT]
     assert port.closed == 1 and driver.link_error is not None and not driver.connected
+
+
+@pytest.mark.parametrize(("delay_s", "timeout_s", "connects"), [(0.5, 1.0, True),
+                                                                (1.5, 1.0, False)])
+def test_in_lock_step_the_first_frame_wait_runs_on_the_clock_wait_input_moves(
+        robot: Robot, delay_s: float, timeout_s: float, connects: bool) -> None:
+    # a slow link: the stream request acts delay_s after it was written; wait_input steps the
+    # simulator, so the wait is measured in simulated seconds, not the wall's
+    robot.sim.command_delay_s = delay_s
+    driver = robot.driver(first_frame_timeout_s=timeout_s, wait_input=robot.sim.step)
+    if not connects:
+        with pytest.raises(InputError, match="no sensor stream within 1 s"):
+            driver.connect()
+        assert timeout_s < robot.clock.now() < timeout_s + 0.1
+        return
+    driver.connect()
+    try:
+        assert driver.latest is not None and driver.safety_state == "ready"
+        assert delay_s < robot.clock.now() < delay_s + 0.03  # within two 15 ms ticks
+    finally:
+        driver.close()

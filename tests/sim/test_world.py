@@ -97,8 +97,7 @@ def test_bad_world_file_type_and_cast(tmp_path: Path) -> None:
     with pytest.raises(InputError) as exc:
         load_world(path)
     assert str(exc.value) == (
-        f"{path}:3:24: robot.y_mm: Input should be a valid number, unable to parse string as "
-        "a number\n"
+        f"{path}:3:24: robot.y_mm: Input should be a valid number, not the text 'zero'\n"
         f"{path}:4:20: conditions.cast: unknown cast 'purple': use none, warm, cool or "
         "[b, g, r] channel gains"
     )

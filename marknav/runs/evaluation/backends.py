@@ -22,11 +22,12 @@ Local pool (``--jobs J``), the lifetime rules of issue 15 item 9:
   tracker exit) and re-raises — the CLI exits 130.
 
 Dask (``--dask tcp://HOST:PORT``, ``pip install 'marknav[cluster]'``): the jobs are submitted to
-the scheduler as tasks; the workers must be able to import marknav and read the mission file at
-the same absolute path (the same checkout or a shared file system). On Ctrl-C every task of this
-evaluation is cancelled on the cluster before the command exits. A lock serialises runs inside
-one worker process (py_trees' blackboard is process-global), so workers should be started with
-``--nthreads 1`` (``dask worker tcp://HOST:PORT --nthreads 1``).
+the scheduler as tasks, a few per worker ahead as in the local pool; the workers must be able
+to import marknav and read the mission file at the same absolute path (the same checkout or a
+shared file system). On Ctrl-C every task of this evaluation still on the cluster is cancelled
+before the command exits. A lock serialises runs inside one worker process (py_trees'
+blackboard is process-global), so workers should be started with ``--nthreads 1``
+(``dask worker tcp://HOST:PORT --nthreads 1``).
 
 Every backend runs each job with OpenCV on one thread (:func:`one_opencv_thread`): one run per
 core, not one run spread thinly over all of them.
@@ -69,9 +70,10 @@ OnResult = Callable[[Any], None]
 ORPHAN_POLL_S = 0.5
 #: How long the parent waits between checks of its futures (s): bounds the reaction to signals.
 WAIT_S = 0.5
-#: Jobs queued ahead per worker in the local pool: enough that a worker finishing a run finds
-#: the next one waiting, few enough that the queue costs nothing (10^7 runs were 5.1 GB of
-#: futures queued up front, with the signals ignored for the 12 minutes that took).
+#: Jobs queued ahead per worker in the local pool and on a Dask cluster: enough that a worker
+#: finishing a run finds the next one waiting, few enough that the queue costs nothing (10^7
+#: runs were 5.1 GB of futures queued up front, with the signals ignored for the 12 minutes
+#: that took).
 QUEUED_PER_WORKER = 2
 #: How long the Dask scheduler has to answer marknav's first message (s): on a LAN it answers
 #: in milliseconds, over a busy Wi-Fi link (130-300 ms round trips) within a second.
@@ -321,29 +323,48 @@ def _probe_scheduler(address: str, timeout_s: float) -> None:
 
 def _run_dask(task: Task, jobs: Sequence[Job], max_time_s: float | None, on_result: OnResult,
               address: str) -> int:
+    """The jobs on the cluster at ``address``, lazily as in the local pool: at most
+    :data:`QUEUED_PER_WORKER` per worker (at least two) submitted and unfinished, the next one
+    submitted as each result arrives (so --runs 100,000 is not 100,000 futures and task graphs
+    up front, and a Ctrl-C has only those few to cancel). The worker count is asked again at
+    each refill, so workers that join the cluster during the evaluation get jobs."""
     from distributed import as_completed
 
     client = _dask_client(address)
-    futures: list[Any] = []
+    queue = iter(jobs)
+    inflight: set[Any] = set()
+    tag = uuid.uuid4().hex[:8]
+    most_workers = 0
     try:
         with _interruptible():
-            workers = len(client.nthreads()) or 1
-            tag = uuid.uuid4().hex[:8]
-            futures = [client.submit(_run, task, job, max_time_s, pure=False, retries=0,
-                                     key=f"marknav-{Path(job[0]).stem}-{job[1]}-{tag}")
-                       for job in jobs]
-            for fut in as_completed(futures, loop=client.loop):
+            completed = as_completed(loop=client.loop)
+
+            def refill() -> None:
+                nonlocal most_workers
+                workers = len(client.nthreads())
+                most_workers = max(most_workers, workers)
+                window = max(QUEUED_PER_WORKER, QUEUED_PER_WORKER * workers)
+                for job in itertools.islice(queue, max(0, window - len(inflight))):
+                    fut = client.submit(_run, task, job, max_time_s, pure=False, retries=0,
+                                        key=f"marknav-{Path(job[0]).stem}-{job[1]}-{tag}")
+                    inflight.add(fut)
+                    completed.add(fut)
+
+            refill()
+            for fut in completed:
+                inflight.discard(fut)
                 on_result(fut.result())
+                refill()
     except BaseException:
         with _signals_ignored():
             try:
-                client.cancel(futures, force=True)
+                client.cancel(list(inflight), force=True)
             except Exception:
                 log.exception("cancelling the cluster's tasks failed")
             client.close(timeout=5)
         raise
     client.close(timeout=5)
-    return workers
+    return most_workers or 1
 
 
 # ------------------------------------------------------------------------------- entry

@@ -36,7 +36,7 @@ import numpy as np
 from marknav.core.clock import ManualClock
 from marknav.planning.kinematics import Pose
 from marknav.planning.pose_history import interpolate_pose
-from marknav.robot.driver import CreateDriver
+from marknav.robot.driver import FIRST_FRAME_TIMEOUT_S, CreateDriver
 from marknav.robot.robot import Robot
 from marknav.runs.metrics.truth import MarkTruth, course_truth
 from marknav.sim.builtin_camera import CameraConfig, SimCamera
@@ -166,7 +166,10 @@ class SimEnvironment:
         self.driver = CreateDriver(
             self._url, model=model, clock=self.clock, command_timeout_s=command_timeout_s,
             sensor_timeout_s=sensor_timeout_s, wheel_base_mm=wheel_base_mm, start_pose=start,
-            first_frame_timeout_s=None, settle_s=0.0, reader_thread=False, wake_pulse_s=0.0,
+            # connect waits, on the simulated clock, for the stream request to cross the link
+            # and the first frame to come back, as it does on a real port
+            first_frame_timeout_s=FIRST_FRAME_TIMEOUT_S + self.create.command_delay_s,
+            wait_input=self._wait_link, settle_s=0.0, reader_thread=False, wake_pulse_s=0.0,
             odometry_scale=odometry_scale,
         )
         self.truth = GroundTruth()
@@ -188,9 +191,11 @@ class SimEnvironment:
         self._in_contact = False
         self._closed = False
         self._event_dicts: list[dict[str, Any]] = []
-        self.driver.connect()
-        self._step(STREAM_PERIOD_S)  # the first sensor frame
-        self.truth.record(self.clock.now(), self.create.pose)
+        try:
+            self.driver.connect()  # returns with the first sensor frame read
+        except BaseException:
+            self.close()
+            raise
 
     @property
     def robot(self) -> Robot:
@@ -226,6 +231,12 @@ class SimEnvironment:
             unregister(self._url.split("://", 1)[1])
 
     # -- internals ------------------------------------------------------------------------
+    def _wait_link(self, dt: float) -> None:
+        """The driver waits ``dt`` s for input: run the world to the later of that and the next
+        15 ms sensor tick (no stream frame leaves the robot between ticks)."""
+        self._step(max(dt, self.create.next_tick_time() - self.clock.now()))
+        self.truth.record(self.clock.now(), self.create.pose)
+
     def _ground(self, pose: Pose) -> tuple[float, float]:
         """Each wheel's share of its travel that reaches the ground where it stands (1 off every
         friction patch): the wheels sit half the wheel base to each side of the centre."""

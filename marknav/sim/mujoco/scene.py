@@ -38,6 +38,7 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from marknav.core.yamlio import Integer, Number
 from marknav.sim.randomisation import bounds, counts
 
 __all__ = [
@@ -83,8 +84,8 @@ CORRIDOR_MARGIN_MM = 300.0
 CORRIDOR_SPAN_MM = bounds("mujoco.corridor_offset")[1]
 MARK_YAW_MAX_DEG = bounds("mujoco.mark_yaw")[1]
 
-_Finite = Annotated[float, Field(allow_inf_nan=False)]
-_Unit = Annotated[float, Field(ge=0.0, le=2.0, allow_inf_nan=False)]
+_Finite = Annotated[Number, Field(allow_inf_nan=False)]
+_Unit = Annotated[Number, Field(ge=0.0, le=2.0, allow_inf_nan=False)]
 
 
 class _Strict(BaseModel):
@@ -97,7 +98,7 @@ class Light(_Strict):
 
     x_mm: _Finite
     y_mm: _Finite
-    z_mm: Annotated[float, Field(gt=0.0, le=10_000.0, allow_inf_nan=False)] = 2500.0
+    z_mm: Annotated[Number, Field(gt=0.0, le=10_000.0, allow_inf_nan=False)] = 2500.0
     rgb: tuple[_Unit, _Unit, _Unit] = (0.5, 0.5, 0.5)
     shadows: bool = True
 
@@ -107,9 +108,9 @@ class Occluder(_Strict):
 
     x_mm: _Finite
     y_mm: _Finite
-    radius_mm: Annotated[float, Field(gt=0.0, le=500.0, allow_inf_nan=False)] = 20.0
-    height_mm: Annotated[float, Field(gt=0.0, le=5000.0, allow_inf_nan=False)] = 1000.0
-    grey: Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False)] = 0.35
+    radius_mm: Annotated[Number, Field(gt=0.0, le=500.0, allow_inf_nan=False)] = 20.0
+    height_mm: Annotated[Number, Field(gt=0.0, le=5000.0, allow_inf_nan=False)] = 1000.0
+    grey: Annotated[Number, Field(ge=0.0, le=1.0, allow_inf_nan=False)] = 0.35
 
 
 class Distractor(_Strict):
@@ -118,22 +119,22 @@ class Distractor(_Strict):
 
     x_mm: _Finite
     y_mm: _Finite
-    z_mm: Annotated[float, Field(ge=0.0, le=3000.0, allow_inf_nan=False)] = 300.0
+    z_mm: Annotated[Number, Field(ge=0.0, le=3000.0, allow_inf_nan=False)] = 300.0
     shape: Literal["ball", "box"] = "ball"
-    size_mm: Annotated[float, Field(gt=0.0, le=1000.0, allow_inf_nan=False)] = 150.0
+    size_mm: Annotated[Number, Field(gt=0.0, le=1000.0, allow_inf_nan=False)] = 150.0
     near: str = Field(min_length=1)
-    hue_offset: Annotated[float, Field(ge=-30.0, le=30.0, allow_inf_nan=False)] = 9.0
+    hue_offset: Annotated[Number, Field(ge=-30.0, le=30.0, allow_inf_nan=False)] = 9.0
 
 
 class MujocoScene(_Strict):
     """The MuJoCo engine's room (see the module docstring); the built-in engine ignores it."""
 
     lights: tuple[Light, ...] | None = None  # None: one white lamp above the course
-    ambient: Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False)] = 0.3
+    ambient: Annotated[Number, Field(ge=0.0, le=1.0, allow_inf_nan=False)] = 0.3
     floor: Literal["plain", "checker", "photo"] = "plain"
     wall: Literal["plain", "gradient", "photo"] = "plain"
-    checker_mm: Annotated[float, Field(gt=10.0, le=2000.0, allow_inf_nan=False)] = 300.0
-    texture_seed: Annotated[int, Field(ge=0)] = 0
+    checker_mm: Annotated[Number, Field(gt=10.0, le=2000.0, allow_inf_nan=False)] = 300.0
+    texture_seed: Annotated[Integer, Field(ge=0)] = 0
     occluders: tuple[Occluder, ...] = ()
     distractors: tuple[Distractor, ...] = ()
 

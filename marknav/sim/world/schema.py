@@ -23,7 +23,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, field_validator, model_validator
 
-from marknav.core.yamlio import Position, load_yaml_file, parse_model
+from marknav.core.yamlio import Integer, Number, Position, load_yaml_file, parse_model
 from marknav.planning.kinematics import Pose, wrap_angle
 from marknav.sim.lens import Lens
 from marknav.sim.mujoco.scene import MujocoScene
@@ -61,8 +61,8 @@ CAST_GAINS_BGR: dict[str, tuple[float, float, float]] = {
     "cool": (1.20, 1.0, 0.80),
 }
 
-_Finite = Annotated[float, Field(allow_inf_nan=False)]
-_Gain = Annotated[float, Field(gt=0.0, le=4.0, allow_inf_nan=False)]
+_Finite = Annotated[Number, Field(allow_inf_nan=False)]
+_Gain = Annotated[Number, Field(gt=0.0, le=4.0, allow_inf_nan=False)]
 
 
 class _Strict(BaseModel):
@@ -76,7 +76,7 @@ class MarkSpec(_Strict):
     x_mm: _Finite
     y_mm: _Finite
     yaw_deg: _Finite = 0.0
-    radius_mm: Annotated[float, Field(gt=0.0, le=2000.0, allow_inf_nan=False)] | None = None
+    radius_mm: Annotated[Number, Field(gt=0.0, le=2000.0, allow_inf_nan=False)] | None = None
 
     @property
     def xy(self) -> tuple[float, float]:
@@ -132,8 +132,8 @@ class Box(_Strict):
 
     x_mm: _Finite
     y_mm: _Finite
-    width_mm: Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
-    depth_mm: Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
+    width_mm: Annotated[Number, Field(gt=0.0, allow_inf_nan=False)]
+    depth_mm: Annotated[Number, Field(gt=0.0, allow_inf_nan=False)]
     yaw_deg: _Finite = 0.0
 
     def corners(self) -> list[tuple[float, float]]:
@@ -208,38 +208,38 @@ class Conditions(_Strict):
 
     lighting_gain: _Gain = 1.0
     cast: Literal["none", "warm", "cool"] | tuple[_Gain, _Gain, _Gain] = "none"
-    noise_sigma: Annotated[float, Field(ge=0.0, le=64.0, allow_inf_nan=False)] = 2.0
-    blur_sigma_px: Annotated[float, Field(ge=0.0, le=10.0, allow_inf_nan=False)] = 0.0
-    wheel_mismatch: Annotated[float, Field(ge=-0.5, le=0.5, allow_inf_nan=False)] = 0.0
-    wheel_slip: Annotated[float, Field(ge=0.0, le=WHEEL_SLIP_LIMIT, allow_inf_nan=False)] = 0.0
-    latency_frames: Annotated[int, Field(ge=0, le=30)] = 0
-    camera_latency_s: Annotated[float, Field(ge=0.0, le=2.0, allow_inf_nan=False)] = 0.0
-    processing_s: Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False)] = 0.0
-    camera_pitch_deg: Annotated[float, Field(ge=-30.0, le=30.0, allow_inf_nan=False)] = 0.0
-    camera_roll_deg: Annotated[float, Field(ge=-30.0, le=30.0, allow_inf_nan=False)] = 0.0
-    mark_height_offset_mm: Annotated[float, Field(ge=-1000.0, le=1000.0,
+    noise_sigma: Annotated[Number, Field(ge=0.0, le=64.0, allow_inf_nan=False)] = 2.0
+    blur_sigma_px: Annotated[Number, Field(ge=0.0, le=10.0, allow_inf_nan=False)] = 0.0
+    wheel_mismatch: Annotated[Number, Field(ge=-0.5, le=0.5, allow_inf_nan=False)] = 0.0
+    wheel_slip: Annotated[Number, Field(ge=0.0, le=WHEEL_SLIP_LIMIT, allow_inf_nan=False)] = 0.0
+    latency_frames: Annotated[Integer, Field(ge=0, le=30)] = 0
+    camera_latency_s: Annotated[Number, Field(ge=0.0, le=2.0, allow_inf_nan=False)] = 0.0
+    processing_s: Annotated[Number, Field(ge=0.0, le=1.0, allow_inf_nan=False)] = 0.0
+    camera_pitch_deg: Annotated[Number, Field(ge=-30.0, le=30.0, allow_inf_nan=False)] = 0.0
+    camera_roll_deg: Annotated[Number, Field(ge=-30.0, le=30.0, allow_inf_nan=False)] = 0.0
+    mark_height_offset_mm: Annotated[Number, Field(ge=-1000.0, le=1000.0,
                                                   allow_inf_nan=False)] = 0.0
     floor: Literal["plain", "wood", "carpet"] = "plain"
-    floor_saturation: Annotated[float, Field(ge=0.0, le=255.0, allow_inf_nan=False)] = 120.0
+    floor_saturation: Annotated[Number, Field(ge=0.0, le=255.0, allow_inf_nan=False)] = 120.0
     wall: Literal["plain", "photo"] = "plain"
-    wall_hue: Annotated[float, Field(ge=0.0, lt=180.0, allow_inf_nan=False)] | None = None
-    occluders: Annotated[int, Field(ge=0, le=20)] = 0
-    distractors: Annotated[int, Field(ge=0, le=40)] = 0
+    wall_hue: Annotated[Number, Field(ge=0.0, lt=180.0, allow_inf_nan=False)] | None = None
+    occluders: Annotated[Integer, Field(ge=0, le=20)] = 0
+    distractors: Annotated[Integer, Field(ge=0, le=40)] = 0
     #: The camera's lens (distortion, principal point): :class:`marknav.sim.lens.Lens`.
     lens: Lens = Lens()
-    frame_rate_hz: Annotated[float, Field(ge=0.0, le=240.0, allow_inf_nan=False)] = 0.0
-    dropped_frames: Annotated[float, Field(ge=0.0, le=0.9, allow_inf_nan=False)] = 0.0
-    exposure_ms: Annotated[float, Field(ge=0.0, le=200.0, allow_inf_nan=False)] = 0.0
-    exposure_drift: Annotated[float, Field(ge=0.0, le=0.9, allow_inf_nan=False)] = 0.0
-    exposure_period_s: Annotated[float, Field(gt=0.0, le=600.0, allow_inf_nan=False)] = 6.0
-    mark_saturation: Annotated[float, Field(gt=0.0, le=1.0, allow_inf_nan=False)] = 1.0
-    mark_saturation_spread: Annotated[float, Field(ge=0.0, le=0.5, allow_inf_nan=False)] = 0.0
-    mark_hue_spread: Annotated[float, Field(ge=0.0, le=30.0, allow_inf_nan=False)] = 0.0
-    encoder_scale: Annotated[float, Field(ge=0.5, le=1.5, allow_inf_nan=False)] = 1.0
-    encoder_noise_counts: Annotated[float, Field(ge=0.0, le=20.0, allow_inf_nan=False)] = 0.0
-    accel_mm_s2: Annotated[float, Field(ge=0.0, le=20000.0, allow_inf_nan=False)] = 0.0
-    command_delay_ms: Annotated[float, Field(ge=0.0, le=2000.0, allow_inf_nan=False)] = 0.0
-    top_speed_mm_s: Annotated[float, Field(gt=0.0, le=500.0, allow_inf_nan=False)] = 500.0
+    frame_rate_hz: Annotated[Number, Field(ge=0.0, le=240.0, allow_inf_nan=False)] = 0.0
+    dropped_frames: Annotated[Number, Field(ge=0.0, le=0.9, allow_inf_nan=False)] = 0.0
+    exposure_ms: Annotated[Number, Field(ge=0.0, le=200.0, allow_inf_nan=False)] = 0.0
+    exposure_drift: Annotated[Number, Field(ge=0.0, le=0.9, allow_inf_nan=False)] = 0.0
+    exposure_period_s: Annotated[Number, Field(gt=0.0, le=600.0, allow_inf_nan=False)] = 6.0
+    mark_saturation: Annotated[Number, Field(gt=0.0, le=1.0, allow_inf_nan=False)] = 1.0
+    mark_saturation_spread: Annotated[Number, Field(ge=0.0, le=0.5, allow_inf_nan=False)] = 0.0
+    mark_hue_spread: Annotated[Number, Field(ge=0.0, le=30.0, allow_inf_nan=False)] = 0.0
+    encoder_scale: Annotated[Number, Field(ge=0.5, le=1.5, allow_inf_nan=False)] = 1.0
+    encoder_noise_counts: Annotated[Number, Field(ge=0.0, le=20.0, allow_inf_nan=False)] = 0.0
+    accel_mm_s2: Annotated[Number, Field(ge=0.0, le=20000.0, allow_inf_nan=False)] = 0.0
+    command_delay_ms: Annotated[Number, Field(ge=0.0, le=2000.0, allow_inf_nan=False)] = 0.0
+    top_speed_mm_s: Annotated[Number, Field(gt=0.0, le=500.0, allow_inf_nan=False)] = 500.0
 
     @field_validator("cast", mode="before")
     @classmethod
@@ -272,8 +272,8 @@ class FrictionPatch(_Strict):
 
     x_mm: _Finite
     y_mm: _Finite
-    radius_mm: Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
-    slip: Annotated[float, Field(ge=0.0, lt=1.0, allow_inf_nan=False)]
+    radius_mm: Annotated[Number, Field(gt=0.0, allow_inf_nan=False)]
+    slip: Annotated[Number, Field(ge=0.0, lt=1.0, allow_inf_nan=False)]
 
     def contains(self, x: float, y: float) -> bool:
         return (x - self.x_mm) ** 2 + (y - self.y_mm) ** 2 <= self.radius_mm ** 2
@@ -297,10 +297,10 @@ class FaultEvent(_Strict):
     ``bump`` (packet 7 bits 0–1, the robot pinned). ``side`` says which sensor; it lasts
     ``duration_s`` seconds (``null``: to the end of the run)."""
 
-    t_s: Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
+    t_s: Annotated[Number, Field(ge=0.0, allow_inf_nan=False)]
     fault: Literal["cliff", "wheel_drop", "overcurrent", "low_battery", "bump"]
     side: Literal["left", "right", "both", "front_left", "front_right"] = "both"
-    duration_s: Annotated[float, Field(gt=0.0, allow_inf_nan=False)] | None = None
+    duration_s: Annotated[Number, Field(gt=0.0, allow_inf_nan=False)] | None = None
 
     @model_validator(mode="after")
     def _side_fits(self) -> FaultEvent:
@@ -315,8 +315,8 @@ class Background(_Strict):
     """What the camera sees behind the marks: a textured room drawn from ``seed``, with
     ``clutter`` non-circular coloured shapes (posters, tape stripes) on the far wall."""
 
-    seed: Annotated[int, Field(ge=0)] = 0
-    clutter: Annotated[int, Field(ge=0, le=200)] = 8
+    seed: Annotated[Integer, Field(ge=0)] = 0
+    clutter: Annotated[Integer, Field(ge=0, le=200)] = 8
 
 
 class World(_Strict):
@@ -334,7 +334,7 @@ class World(_Strict):
     events: tuple[FaultEvent, ...] = ()
     #: The course: the mark (index into ``marks``) each waypoint must pass, in route order; a mark
     #: may appear more than once. ``None``: the marks in file order, one per waypoint.
-    course: tuple[Annotated[int, Field(ge=0)], ...] | None = None
+    course: tuple[Annotated[Integer, Field(ge=0)], ...] | None = None
     #: What only the MuJoCo engine draws (lights, textures, occluders, distractors:
     #: :class:`marknav.sim.mujoco.scene.MujocoScene`); the built-in engine ignores it.
     mujoco: MujocoScene | None = None

@@ -8,7 +8,7 @@ import math
 import pytest
 
 from marknav.runs.loop.sim_environment import SimEnvironment, waypoint_truth
-from marknav.sim.world import CREATE_RADIUS_MM, MarkSpec, World
+from marknav.sim.world import CREATE_RADIUS_MM, Conditions, MarkSpec, World
 from marknav.vision.palette import DEFAULT_PALETTE
 
 MARK = (0.0, 1000.0)
@@ -82,3 +82,21 @@ def test_ground_truth_side_and_clearance(env: SimEnvironment) -> None:
     assert mt_right.truth == "wrong_side"
     clearance = mt.min_clearance_mm
     assert clearance == pytest.approx(min(math.dist(p, MARK) for p in env.truth.xy), abs=0.1)
+
+
+@pytest.mark.parametrize("delay_ms", [500.0, 2000.0])  # 2000: the world schema's bound
+def test_a_slow_command_link_connects_and_drives(delay_ms: float) -> None:
+    """The stream request reaches the robot ``command_delay_ms`` after it was written: the
+    connect waits for the first frame on the simulated clock, so the sensor watchdog does not
+    count the link's delay as a lost stream, and the delayed wheel commands move the robot."""
+    world = World(marks=(MarkSpec(colour="red", x_mm=MARK[0], y_mm=MARK[1], radius_mm=100.0),),
+                  conditions=Conditions(command_delay_ms=delay_ms))
+    with SimEnvironment(world, DEFAULT_PALETTE, seed=3) as env:
+        assert env.robot.safety_state == "ready"
+        assert env.robot.latest is not None
+        start_y = env.create.pose.y
+        drive_for(env, delay_ms / 1000.0 + 1.0, left=200, right=200)
+        assert [e.event for e in env.robot.safety_events if e.state == "fault"] == []
+        assert env.robot.safety_state == "driving"
+        # about 1 s of 200 mm/s once the first command arrived
+        assert env.create.pose.y - start_y == pytest.approx(200.0, abs=40.0)
