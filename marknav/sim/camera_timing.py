@@ -96,10 +96,12 @@ def smear_px(yaw_rate_rad_s: float, conditions: Conditions, focal_px: float) -> 
 
 
 def expose(image: Image, *, motion_px: float = 0.0, gain: float = 1.0) -> Image:
-    """``image`` smeared by ``motion_px`` (a horizontal box filter of that length) and scaled by
-    ``gain`` (saturating at 255); the image itself when neither applies."""
+    """``image`` smeared by ``motion_px`` (a horizontal box filter of that length, at most the
+    image's width: a turn through more than the field of view during one exposure leaves only
+    the average) and scaled by ``gain`` (saturating at 255); the image itself when neither
+    applies."""
     if abs(motion_px) >= _MIN_SMEAR_PX:
-        length = max(2, round(abs(motion_px)))
+        length = max(2, round(min(abs(motion_px), image.shape[1])))
         image = np.asarray(cv2.blur(image, (length, 1)), dtype=np.uint8)
     if gain != 1.0:
         image = np.asarray(cv2.convertScaleAbs(image, alpha=gain), dtype=np.uint8)

@@ -256,3 +256,15 @@ def test_latency_in_frames_counts_the_frames_the_camera_took_not_the_reads(engin
             clock.advance(0.02)
     assert late[:15] == [0] * 15  # the first frame until two more were taken
     assert all(x == max(0, y - 2) for x, y in zip(late, now, strict=True))
+
+
+def test_a_smear_is_at_most_the_frame_wide() -> None:
+    """However fast the turn (a body knocked into a spin), one exposure averages the row."""
+    from marknav.sim.camera_timing import expose
+
+    rng = np.random.default_rng(1)
+    image = rng.integers(0, 256, (12, 40, 3), dtype=np.uint8)
+    widest = expose(image, motion_px=40.0)
+    for px in (41.0, 1e6, math.inf, -math.inf):
+        assert np.array_equal(expose(image, motion_px=px), widest)
+    assert np.array_equal(expose(image, motion_px=math.nan), image)
