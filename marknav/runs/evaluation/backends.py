@@ -47,6 +47,7 @@ import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
 from types import FrameType
@@ -56,7 +57,9 @@ from marknav.core.cvthreads import one_opencv_thread
 from marknav.core.errors import InputError
 from marknav.core.signals import ENDING_SIGNALS
 
-__all__ = ["ORPHAN_POLL_S", "EvaluationInterrupted", "Job", "one_opencv_thread", "run_jobs"]
+__all__ = [
+    "ORPHAN_POLL_S", "EvaluationInterrupted", "Job", "OnLost", "one_opencv_thread", "run_jobs",
+]
 
 log = logging.getLogger(__name__)
 
@@ -223,50 +226,133 @@ def _stop_workers(procs: Sequence[multiprocessing.process.BaseProcess]) -> None:
             p.join(1.0)
 
 
+class _Pool:
+    """A ``spawn`` process pool whose workers follow the rules of the module docstring, and
+    the processes it started (to end them at once)."""
+
+    def __init__(self, workers: int) -> None:
+        ctx = multiprocessing.get_context("spawn")
+        level = logging.getLogger().getEffectiveLevel()
+        self._before = set(multiprocessing.active_children())
+        # The pool's helper processes start with SIGINT, SIGHUP... ignored, inherited (a
+        # handler is not): multiprocessing's resource tracker (started with the pool's first
+        # lock) and the workers (started by the first submits). A Ctrl-C while a worker is
+        # still importing cannot kill it with a traceback, and a closed terminal's SIGHUP to
+        # the process group cannot kill the tracker under the pool; the parent alone decides.
+        # SIGTERM stays: it ends a worker.
+        self.spawning = tuple(s for s in ENDING_SIGNALS if s != signal.SIGTERM)
+        with _signals_ignored(self.spawning):
+            self.executor = ProcessPoolExecutor(
+                max_workers=workers, mp_context=ctx, initializer=_init_worker,
+                initargs=(level, os.getpid()))
+        self.workers = workers
+        self.procs: list[multiprocessing.process.BaseProcess] = []
+
+    def submit(self, task: Task, job: Job, max_time_s: float | None) -> Future[Any]:
+        if len(self.procs) >= self.workers:  # every worker started: a submit spawns none
+            return self.executor.submit(_pool_task, task, job, max_time_s)
+        with _signals_ignored(self.spawning):
+            fut = self.executor.submit(_pool_task, task, job, max_time_s)
+        self.procs += [p for p in multiprocessing.active_children()
+                       if p not in self._before and p not in self.procs]
+        return fut
+
+    def died(self) -> str:
+        """How the pool's dead workers ended (``SIGABRT``, ``exit code 1``), for a message."""
+        codes = sorted({p.exitcode for p in self.procs
+                        if not p.is_alive() and p.exitcode not in (None, 0)}, key=str)
+        return ", ".join(signal.Signals(-c).name if c < 0 else f"exit code {c}"
+                         for c in codes if c is not None) or "unknown"
+
+    def stop(self) -> None:
+        """End the workers now and shut the pool down (after an error or a signal, or once a
+        worker died: a broken pool cannot take more jobs)."""
+        with _signals_ignored():
+            # The pool cancels what has not started (cancelling futures here races with its
+            # manager thread), the workers end now, then the manager thread is joined.
+            self.executor.shutdown(wait=False, cancel_futures=True)
+            _stop_workers(self.procs)
+            self.executor.shutdown(wait=True)
+
+
+#: What a job whose worker process died twice becomes: ``on_lost(job, how)`` -> a result.
+OnLost = Callable[[Job, str], Any]
+
+
 def _run_pool(task: Task, jobs: Sequence[Job], max_time_s: float | None, on_result: OnResult,
-              workers: int) -> int:
-    ctx = multiprocessing.get_context("spawn")
-    level = logging.getLogger().getEffectiveLevel()
-    before = set(multiprocessing.active_children())
-    procs: list[multiprocessing.process.BaseProcess] = []
-    # The pool's helper processes start with SIGINT, SIGHUP... ignored, inherited (a handler
-    # is not): multiprocessing's resource tracker (started with the pool's first lock) and the
-    # workers (started by the first submits). A Ctrl-C while a worker is still importing cannot
-    # kill it with a traceback, and a closed terminal's SIGHUP to the process group cannot kill
-    # the tracker under the pool; the parent alone decides. SIGTERM stays: it ends a worker.
-    spawning = tuple(s for s in ENDING_SIGNALS if s != signal.SIGTERM)
+              workers: int, on_lost: OnLost | None = None) -> int:
+    """The local pool. A worker that dies (the renderer's library crashing the process, the
+    kernel's OOM killer) breaks the pool and every job in flight with it: those jobs are run
+    again one at a time, each in a fresh worker of its own (a run depends on its seed alone),
+    and a job whose worker dies again becomes ``on_lost(job, how)``; then a fresh pool goes on
+    with the rest. Without ``on_lost`` the broken pool's error is raised."""
     queue = iter(jobs)
-    pending: set[Future[Any]] = set()
-
-    def refill() -> None:  # lazily: a few jobs ahead, never the whole evaluation
-        for job in itertools.islice(queue, QUEUED_PER_WORKER * workers - len(pending)):
-            pending.add(pool.submit(_pool_task, task, job, max_time_s))
-
+    pending: dict[Future[Any], Job] = {}
+    pool: _Pool | None = None
     with _interruptible():
-        with _signals_ignored(spawning):
-            pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
-                                       initializer=_init_worker, initargs=(level, os.getpid()))
         try:
-            with _signals_ignored(spawning):
-                refill()  # starts the workers (at least one job each)
-            procs = [p for p in multiprocessing.active_children() if p not in before]
-            while pending:
-                done, pending = wait(pending, timeout=WAIT_S, return_when=FIRST_COMPLETED)
+            while True:
+                if pool is None:
+                    pool = _Pool(workers)
+                # lazily: a few jobs ahead, never the whole evaluation
+                for job in itertools.islice(queue, QUEUED_PER_WORKER * workers - len(pending)):
+                    pending[pool.submit(task, job, max_time_s)] = job
+                if not pending:
+                    break
+                done, _ = wait(set(pending), timeout=WAIT_S, return_when=FIRST_COMPLETED)
+                broken = []
                 for fut in done:
-                    on_result(fut.result())
-                refill()
+                    job = pending.pop(fut)
+                    try:
+                        result = fut.result()
+                    except BrokenProcessPool:
+                        if on_lost is None:
+                            raise
+                        broken.append(job)
+                        continue
+                    on_result(result)
+                if broken:
+                    broken += pending.values()  # a broken pool fails every job it holds
+                    pending.clear()
+                    how = pool.died()
+                    pool.stop()
+                    pool = None
+                    log.warning("a worker process died (%s) with %d run(s) in flight: running "
+                                "them again one at a time", how, len(broken))
+                    assert on_lost is not None
+                    for job in broken:
+                        on_result(_run_alone(task, job, max_time_s, on_lost))
         except BaseException:
-            with _signals_ignored():
-                procs = procs or [p for p in multiprocessing.active_children()
-                                  if p not in before]
-                # The pool cancels what has not started (cancelling futures here races with
-                # its manager thread), the workers end now, then the manager thread is joined.
-                pool.shutdown(wait=False, cancel_futures=True)
-                _stop_workers(procs)
-                pool.shutdown(wait=True)
+            if pool is not None:
+                pool.stop()
             raise
-        pool.shutdown(wait=True)
+        if pool is not None:
+            with _signals_ignored():
+                pool.executor.shutdown(wait=True)
     return workers
+
+
+def _run_alone(task: Task, job: Job, max_time_s: float | None, on_lost: OnLost) -> Any:
+    """``job`` in a pool of one fresh worker; ``on_lost(job, how)`` if that worker dies too."""
+    pool = _Pool(1)
+    try:
+        fut = pool.submit(task, job, max_time_s)
+        while True:
+            done, _ = wait({fut}, timeout=WAIT_S)
+            if done:
+                break
+        try:
+            result = fut.result()
+        except BrokenProcessPool:
+            how = pool.died()
+            log.error("seed %s: its worker process died again (%s)", job[1], how)
+            result = on_lost(job, how)
+    except BaseException:
+        pool.stop()
+        raise
+    with _signals_ignored():
+        pool.executor.shutdown(wait=True)
+    return result
 
 
 # -------------------------------------------------------------------------------- Dask
@@ -372,14 +458,17 @@ def _run_dask(task: Task, jobs: Sequence[Job], max_time_s: float | None, on_resu
 
 def run_jobs(task: Task, jobs: Sequence[Job], *, max_time_s: float | None = None,
              workers: int = 1,
-             dask: str | None = None, on_result: OnResult | None = None) -> tuple[list[Any], int]:
+             dask: str | None = None, on_result: OnResult | None = None,
+             on_lost: OnLost | None = None) -> tuple[list[Any], int]:
     """Run ``task(mission, seed, max_time_s, *rest)`` for every job ``(mission, seed, *rest)``
     (a module-level function, so a process pool or a cluster can ship it by name); return the
     results (completion order) and how many workers ran them.
 
     ``dask`` (a scheduler address) runs them on that cluster, else ``workers`` > 1 in a local
     process pool, else here. ``on_result`` sees each result as it arrives. Bad input raised by
-    a run (:class:`InputError`) and Ctrl-C propagate, after the other runs are stopped.
+    a run (:class:`InputError`) and Ctrl-C propagate, after the other runs are stopped. In the
+    local pool, a job whose worker process dies twice (see :func:`_run_pool`) becomes
+    ``on_lost(job, how)`` (without it, the broken pool's error is raised).
     """
     results: list[Any] = []
 
@@ -391,7 +480,7 @@ def run_jobs(task: Task, jobs: Sequence[Job], *, max_time_s: float | None = None
     if dask is not None:
         used = _run_dask(task, jobs, max_time_s, done, dask)
     elif min(workers, len(jobs)) > 1:
-        used = _run_pool(task, jobs, max_time_s, done, min(workers, len(jobs)))
+        used = _run_pool(task, jobs, max_time_s, done, min(workers, len(jobs)), on_lost)
     else:
         used = _run_serial(task, jobs, max_time_s, done)
     return results, used

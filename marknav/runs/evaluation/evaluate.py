@@ -30,7 +30,7 @@ from marknav.runs.evaluation.accuracy import (
     position_accuracy,
 )
 from marknav.runs.evaluation.backends import Job, run_jobs
-from marknav.runs.evaluation.job import run_seed
+from marknav.runs.evaluation.job import lost_run, run_seed
 from marknav.runs.metrics.statistics import (
     CLEARANCE_TOLERANCE_MM,
     Evaluation,
@@ -214,7 +214,7 @@ def evaluate(
     try:
         _, workers = run_jobs(run_seed, jobs_list,
                               max_time_s=max_time_s,
-                              workers=jobs, dask=dask, on_result=done)
+                              workers=jobs, dask=dask, on_result=done, on_lost=lost_run)
     except KeyboardInterrupt as exc:  # what finished is kept (the runs cut short are not)
         ev = summary(jobs)
         ev.interrupted = True

@@ -14,6 +14,7 @@ import traceback
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 from marknav.core.errors import InputError
 from marknav.runs.records.seed_result import (
@@ -92,3 +93,10 @@ def run_seed(mission_path: str, seed: int, max_time_s: float | None = None,
                                   clearance_mm=mission.navigation.clearance_mm)
 
 
+def lost_run(job: tuple[Any, ...], how: str) -> SeedResult:
+    """A job whose worker process died, twice (the local pool runs it again alone first): an
+    ``"error"`` outcome naming how the process ended."""
+    return SeedResult(seed=int(job[1]), outcome=ERROR,
+                      reason=f"crashed: its worker process died ({how}), twice",
+                      sim_time_s=0.0, wall_time_s=0.0, collisions=0, waypoints=(),
+                      mission=str(job[0]))
