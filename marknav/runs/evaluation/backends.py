@@ -312,7 +312,13 @@ def _run_pool(task: Task, jobs: Sequence[Job], max_time_s: float | None, on_resu
                         continue
                     on_result(result)
                 if broken:
-                    broken += pending.values()  # a broken pool fails every job it holds
+                    # a broken pool fails every job it still holds (one that finished first
+                    # keeps its result)
+                    for fut, job in pending.items():
+                        if fut.done() and not fut.cancelled() and fut.exception() is None:
+                            on_result(fut.result())
+                        else:
+                            broken.append(job)
                     pending.clear()
                     how = pool.died()
                     pool.stop()
