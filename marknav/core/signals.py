@@ -16,6 +16,14 @@ SIGXCPU) to one handler, so each leaves the robot stopped and the report written
   interrupt is exactly what must not be lost (a second Ctrl-C 0.1 s after the first used to
   leave no report). The clean-up is bounded (joins and port writes have timeouts).
 
+- A signal's exception raised inside a **callback from C** (a ctypes callback such as
+  llvmlite's while numba compiles, an object's finaliser) cannot leave it: Python reports it
+  as unraisable and the C code goes on. The policy's :data:`sys.unraisablehook` takes such an
+  ``Interrupted`` (or any ``KeyboardInterrupt`` named for one of :data:`ENDING_SIGNALS`) and
+  delivers the signal to the main thread again, from a helper thread, so it is raised at the
+  next Python line outside the callback (a Ctrl-C during numba's first compilation of a run
+  used to be lost: the run went on and the command exited 1, not 130).
+
 - **After the command returned** (its files written and closed), the entry point ends the
   process itself with :func:`exit_process`: a signal then is noted, not raised, and the exit
   code becomes 130 — the interpreter's own teardown, during which Python handles no signal
@@ -35,11 +43,13 @@ This module imports nothing heavy (no ``logging``): it is loaded in the first mi
 
 from __future__ import annotations
 
+import _thread
 import atexit
 import os
 import signal
 import sys
 import threading
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from types import FrameType
@@ -58,6 +68,9 @@ ENDING_SIGNALS: tuple[signal.Signals, ...] = tuple(
                                        "SIGUSR2", "SIGALRM", "SIGVTALRM", "SIGPROF", "SIGXCPU")
     if hasattr(signal, name))
 _SIGNALS = ENDING_SIGNALS
+#: How often the helper that delivers a swallowed signal again looks whether the hook that
+#: started it has returned, s (the hook returns within microseconds).
+_AGAIN_POLL_S = 0.0005
 
 
 class Interrupted(KeyboardInterrupt):
@@ -76,6 +89,8 @@ class _State:
         self.pending: str | None = None
         self.deferring = 0
         self.late: str | None = None  # a signal after the command returned
+        self.unraisable: Any = None  # sys.unraisablehook before install()
+        self.in_hook = False  # _unraisable is running (its signal waits till it returns)
 
 
 _state = _State()
@@ -93,6 +108,38 @@ def _handler(signum: int, frame: FrameType | None) -> None:
         _state.pending = name
         return
     raise Interrupted(name)
+
+
+def _swallowed_signal(exc: BaseException | None) -> signal.Signals | None:
+    """The ending signal a ``KeyboardInterrupt`` stands for (its ``str()`` names it; a bare one
+    is SIGINT), or None for any other exception."""
+    if not isinstance(exc, KeyboardInterrupt):
+        return None
+    name = str(exc) or "SIGINT"
+    return next((s for s in _SIGNALS if s.name == name), None)
+
+
+def _unraisable(info: Any) -> None:
+    """:data:`sys.unraisablehook` while the policy is installed (see the module docstring)."""
+    sig = _swallowed_signal(info.exc_value)
+    if sig is None:
+        hook = _state.unraisable or sys.__unraisablehook__
+        hook(info)
+        return
+    if _state.first == sig.name and _state.pending is None:
+        _state.first = None  # not raised where it arrived: the handler raises it again
+    # Delivered from another thread once this hook has returned: a handler run inside the
+    # hook would be lost again, or reported as the hook's own failure. (A low-level thread:
+    # threading.Thread.start() waits for it, and the handler would run in that wait.)
+    _state.in_hook = True
+    _thread.start_new_thread(_deliver_again, (sig,))
+    _state.in_hook = False
+
+
+def _deliver_again(sig: signal.Signals) -> None:
+    while _state.in_hook:
+        time.sleep(_AGAIN_POLL_S)
+    _thread.interrupt_main(sig)
 
 
 def _late_handler(signum: int, frame: FrameType | None) -> None:
@@ -113,6 +160,8 @@ def install() -> bool:
     _state.deferring = 0
     if not _state.installed:
         _state.previous = {int(s): signal.signal(s, _handler) for s in _SIGNALS}
+        _state.unraisable = sys.unraisablehook
+        sys.unraisablehook = _unraisable
         _state.installed = True
     return True
 
@@ -125,6 +174,8 @@ def uninstall(*, exiting: bool = False) -> None:
     if _state.installed and _main_thread():
         for s, previous in _state.previous.items():
             signal.signal(s, _late_handler if exiting else previous)
+        if sys.unraisablehook is _unraisable:
+            sys.unraisablehook = _state.unraisable or sys.__unraisablehook__
         _state.installed = False
         _state.previous = {}
 
