@@ -247,6 +247,8 @@ class _Pool:
                 initargs=(level, os.getpid()))
         self.workers = workers
         self.procs: list[multiprocessing.process.BaseProcess] = []
+        #: A worker died: the pool is broken (its futures raise ``BrokenProcessPool``).
+        self.broken = False
 
     def submit(self, task: Task, job: Job, max_time_s: float | None) -> Future[Any]:
         if len(self.procs) >= self.workers:  # every worker started: a submit spawns none
@@ -258,7 +260,11 @@ class _Pool:
         return fut
 
     def died(self) -> str:
-        """How the pool's dead workers ended (``SIGABRT``, ``exit code 1``), for a message."""
+        """How the broken pool's workers ended (``SIGABRT``, ``exit code 1``), for a message:
+        once its manager thread has ended and reaped them (it ends the others itself)."""
+        self.broken = True
+        with _signals_ignored():
+            self.executor.shutdown(wait=True)
         codes = sorted({p.exitcode for p in self.procs
                         if not p.is_alive() and p.exitcode not in (None, 0)}, key=str)
         return ", ".join(signal.Signals(-c).name if c < 0 else f"exit code {c}"
@@ -267,6 +273,14 @@ class _Pool:
     def stop(self) -> None:
         """End the workers now and shut the pool down (after an error or a signal, or once a
         worker died: a broken pool cannot take more jobs)."""
+        if self.broken:
+            # A broken pool's own manager thread is ending and reaping its workers: waiting
+            # for it first, so that no two threads wait for the same process (the second
+            # would never learn that it ended).
+            with _signals_ignored():
+                self.executor.shutdown(wait=True)
+                _stop_workers(self.procs)
+            return
         with _signals_ignored():
             # The pool cancels what has not started (cancelling futures here races with its
             # manager thread), the workers end now, then the manager thread is joined.
@@ -298,6 +312,7 @@ def _run_pool(task: Task, jobs: Sequence[Job], max_time_s: float | None, on_resu
                 for job in itertools.islice(queue, QUEUED_PER_WORKER * workers - len(pending)):
                     pending[pool.submit(task, job, max_time_s)] = job
                 if not pending:
+                    pool.executor.shutdown(wait=True)  # a signal here still stops it (below)
                     break
                 done, _ = wait(set(pending), timeout=WAIT_S, return_when=FIRST_COMPLETED)
                 broken = []
@@ -306,6 +321,7 @@ def _run_pool(task: Task, jobs: Sequence[Job], max_time_s: float | None, on_resu
                     try:
                         result = fut.result()
                     except BrokenProcessPool:
+                        pool.broken = True
                         if on_lost is None:
                             raise
                         broken.append(job)
@@ -332,9 +348,6 @@ def _run_pool(task: Task, jobs: Sequence[Job], max_time_s: float | None, on_resu
             if pool is not None:
                 pool.stop()
             raise
-        if pool is not None:
-            with _signals_ignored():
-                pool.executor.shutdown(wait=True)
     return workers
 
 
@@ -350,14 +363,14 @@ def _run_alone(task: Task, job: Job, max_time_s: float | None, on_lost: OnLost) 
         try:
             result = fut.result()
         except BrokenProcessPool:
+            pool.broken = True
             how = pool.died()
             log.error("seed %s: its worker process died again (%s)", job[1], how)
             result = on_lost(job, how)
+        pool.executor.shutdown(wait=True)
     except BaseException:
         pool.stop()
         raise
-    with _signals_ignored():
-        pool.executor.shutdown(wait=True)
     return result
 
 
