@@ -23,17 +23,14 @@ import yaml
 from marknav.core.signals import ENDING_SIGNALS
 from marknav.sim.pty import PtyServer
 from marknav.sim.simulated_create import WheelSpeeds
-from marknav.testing import BASE_MISSION
 from tests.faultkit import pty_robot
+from tests.tiny_mission import TINY
 
 ROOT = Path(__file__).resolve().parents[2]
 SLALOM = ROOT / "missions" / "slalom.yaml"
 MOMENTS = int(os.environ.get("MARKNAV_SWEEP_MOMENTS", "6"))
 #: Exit codes of a command that ended on its own before the signal: passed or failed.
 OWN_RESULTS = (0, 1)
-TINY = {**BASE_MISSION, "name": "tiny", "route": ["red"],
-        "camera": {"width": 320, "height": 240, "focal_px": 295,
-                   "range": {"model": "pinhole", "focal_px": 295}}}
 
 pytestmark = [pytest.mark.slow,
               pytest.mark.skipif(not Path("/proc/self/stat").exists(),

@@ -8,18 +8,10 @@ from pathlib import Path
 import pytest
 import yaml
 
-from marknav.testing import BASE_MISSION
+from tests.tiny_mission import TINY
 
 pytest.importorskip("distributed")
 
-#: One waypoint, a 320×240 camera: a run of 2 simulated seconds takes well under a second.
-TINY = {
-    **BASE_MISSION,
-    "name": "tiny",
-    "route": ["red"],
-    "camera": {"width": 320, "height": 240, "focal_px": 295,
-               "range": {"model": "pinhole", "focal_px": 295}},
-}
 
 
 @pytest.mark.slow

@@ -20,18 +20,10 @@ import yaml
 from marknav.cli.main import main
 from marknav.runs.evaluation.backends import QUEUED_PER_WORKER
 from marknav.runs.evaluation.evaluate import SeedResult, evaluate
-from marknav.testing import BASE_MISSION
+from tests.tiny_mission import TINY
 
 distributed = pytest.importorskip("distributed")
 
-#: One waypoint, a 320×240 camera: a run takes about a second.
-TINY = {
-    **BASE_MISSION,
-    "name": "tiny",
-    "route": ["red"],
-    "camera": {"width": 320, "height": 240, "focal_px": 295,
-               "range": {"model": "pinhole", "focal_px": 295}},
-}
 
 
 @pytest.fixture(scope="module")

@@ -10,16 +10,7 @@ import pytest
 import yaml
 
 from marknav.cli.main import main
-from marknav.testing import BASE_MISSION
-
-#: One waypoint, a 320×240 camera (quick to render), a pinhole range law matching it.
-TINY = {
-    **BASE_MISSION,
-    "name": "tiny",
-    "route": ["red"],
-    "camera": {"width": 320, "height": 240, "focal_px": 295,
-               "range": {"model": "pinhole", "focal_px": 295}},
-}
+from tests.tiny_mission import TINY
 
 
 @pytest.fixture(scope="module")

@@ -15,15 +15,7 @@ import yaml
 from marknav.runs.evaluation.backends import one_opencv_thread, run_jobs
 from marknav.runs.evaluation.evaluate import run_seed
 from marknav.runs.loop import run as runmod
-from marknav.testing import BASE_MISSION
-
-TINY = {
-    **BASE_MISSION,
-    "name": "tiny",
-    "route": ["red"],
-    "camera": {"width": 320, "height": 240, "focal_px": 295,
-               "range": {"model": "pinhole", "focal_px": 295}},
-}
+from tests.tiny_mission import TINY
 
 
 def test_an_evaluation_job_runs_on_one_opencv_thread_then_restores_it(

@@ -14,17 +14,10 @@ import yaml
 
 from marknav.cli.main import main
 from marknav.runs.evaluation.tune import parse_param
-from marknav.testing import BASE_MISSION
+from tests.tiny_mission import TINY
 
 optuna = pytest.importorskip("optuna")
 
-TINY = {
-    **BASE_MISSION,
-    "name": "tiny",
-    "route": ["red"],
-    "camera": {"width": 320, "height": 240, "focal_px": 295,
-               "range": {"model": "pinhole", "focal_px": 295}},
-}
 PARAMS = ["--param", "navigation.clearance_mm=280:420",
           "--param", "navigation.bypass_distance_mm=600:900:50"]
 
